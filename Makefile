@@ -1,0 +1,76 @@
+# whale-adapter -- every target installs what it needs first, idempotently (see README.md).
+#
+#   make run-case   the main job: pimpleFoam coupled to the step-server (SCENE, CASE, NP)
+#   make test       lint + the whole test suite, OpenFOAM and ParaView included
+#   make dry-run    animate without fluid (SCENE, OUT, CYCLES)
+#   make bench      performance figures; make chart: the numerics study; make paraview: pictures
+
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+# a preset name (default, smoke, fine) or a scene TOML file
+SCENE ?= default
+OUT ?= out/dry-run
+CYCLES ?=
+NP ?=
+CASE ?= runs/$(basename $(notdir $(SCENE)))
+PYTEST_ARGS ?=
+
+scene_args = $(if $(filter %.toml,$(SCENE)),--scene $(SCENE),--preset $(SCENE))
+
+.PHONY: help setup venv system openfoam plugin test lint dry-run calibrate run-case bench \
+        chart paraview paraview-deps clean
+
+help:
+	@sed -n '1,9p' Makefile
+
+$(BIN)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install -q --upgrade pip
+	$(BIN)/pip install -q -e '.[dev]'
+	touch $@
+
+venv: $(BIN)/.installed
+
+# off-screen rendering libraries for pyvista (EGL)
+system:
+	@bash scripts/install_system.sh
+
+openfoam:
+	@bash scripts/install_openfoam.sh
+
+plugin: openfoam
+	@bash scripts/build_plugin.sh
+
+paraview-deps:
+	@bash scripts/install_paraview.sh
+
+setup: venv system openfoam plugin paraview-deps
+
+lint: venv
+	$(BIN)/ruff check adapter tests scripts
+
+test: setup lint
+	$(BIN)/pytest -ra $(PYTEST_ARGS)
+
+dry-run: venv system
+	$(BIN)/whale-adapter dry-run $(scene_args) --out $(OUT) $(if $(CYCLES),--cycles $(CYCLES))
+
+calibrate: venv
+	$(BIN)/whale-adapter calibrate $(scene_args)
+
+run-case: venv system openfoam plugin
+	$(BIN)/whale-adapter run-case $(scene_args) --case $(CASE) $(if $(NP),--np $(NP))
+
+bench: venv
+	$(BIN)/python scripts/bench.py
+
+chart: venv
+	$(BIN)/whale-adapter numerics --out out/numerics
+
+paraview: venv paraview-deps
+	$(BIN)/python scripts/paraview_report.py $(if $(CASE),$(CASE),$(OUT))
+
+clean:
+	rm -rf out build/lib .pytest_cache

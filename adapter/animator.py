@@ -1,0 +1,207 @@
+"""The animator: marches the spring-mass whale forward and hands out displacements.
+
+Asked for a time t, :class:`Animator` advances its one current state with a fixed internal
+step ``dt`` (a whole fraction of the quarter stroke, so the stroke's events fall on steps) and
+returns the displacement of every node from rest, interpolated linearly between the two
+internal steps around t. The answer depends on t alone, not on how often or at which times
+the animator was asked, so a flow solver with any time step, or a restart, sees the same
+motion. No history of steps is kept: the state is the positions and velocities now and one
+step back.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .errors import GeometryError, SceneError
+from .gait import QUARTER_EVENTS, load_fluke_table, ramp, rotation_y, velocity_profile
+from .geometry import build_surface
+from .integrators import make_integrator
+from .springs import network_from_edges, region_constants
+from .stability import stable_dt
+
+#: half-width (fraction of L) of the band of body nodes just ahead of the tail base whose
+#: mean motion carries the fluke hinge
+HINGE_BAND = 0.015
+
+
+class Animator:
+    """The whale of a scene, advanced incrementally.
+
+    Parameters
+    ----------
+    scene : :class:`~adapter.scene.Scene`.
+    surface : the :class:`~adapter.geometry.WhaleSurface` to animate (built from the scene if
+        omitted).
+    """
+
+    def __init__(self, scene, surface=None):
+        self.scene = scene
+        self.surface = surface if surface is not None else build_surface(scene)
+        surf = self.surface
+        self.rest = surf.points
+        s = surf.s
+        self.tail_base_s = float(s[surf.landmarks["tail_base"]])
+        #: fluke nodes (behind the tail base) move as a hinged gate, not as springs
+        self.fluke = s > self.tail_base_s
+        self.dynamic = ~self.fluke
+        band = self.dynamic & (s > self.tail_base_s - 2 * HINGE_BAND)
+        if band.sum() < 3:
+            raise GeometryError(
+                "too few body nodes just ahead of the tail base to carry the fluke hinge; "
+                "check geometry.landmarks.tail_base"
+            )
+        self._hinge_nodes = np.flatnonzero(band)
+        self.hinge0 = self.rest[self._hinge_nodes].mean(axis=0)
+        self._fluke_nodes = np.flatnonzero(self.fluke)
+        self._fluke_arm = self.rest[self._fluke_nodes] - self.hinge0
+
+        sp_ = scene.springs
+        r = scene.regions
+        k = region_constants(s, r.head_end, r.tail_start, sp_.k_head, sp_.k_pivot, sp_.k_tail,
+                             sp_.transition) * sp_.stiffness_scale
+        self.network = network_from_edges(self.rest, surf.edges, k, sp_.mu, sp_.nu, sp_.form)
+        self.profile = velocity_profile(s, self.dynamic, scene.stroke, self.tail_base_s)
+        self.fluke_table = load_fluke_table(scene.stroke.fluke_table, scene.base_dir,
+                                            scene.stroke.fluke_angle_scale)
+        self.period = scene.period_s
+        self.fluke_ramp_s = scene.stroke.fluke_ramp * self.period
+
+        method = scene.integrator.method
+        self.stable_dt = stable_dt(self.network, self.rest, method)
+        quarter = self.period / 4
+        if scene.integrator.dt_s > 0:
+            target = scene.integrator.dt_s
+        elif self.stable_dt > 0:
+            target = scene.integrator.safety * self.stable_dt
+        else:
+            raise SceneError(
+                f"integrator.method = {method} has no stable step with springs.mu = "
+                f"{sp_.mu} and springs.nu = {sp_.nu} (forward Euler needs damping); raise mu"
+            )
+        #: internal steps per quarter stroke, and the internal step (s)
+        self.steps_per_quarter = max(1, math.ceil(quarter / target - 1e-9))
+        self.dt = quarter / self.steps_per_quarter
+        self.integrator = make_integrator(
+            method, self.network.forces, self.dt, runaway=2.0 * surf.length,
+            reference=self.rest, stable_dt=self.stable_dt,
+        )
+        self.reset()
+
+    # -- state ------------------------------------------------------------------------------
+
+    def reset(self) -> None:
+        """Back to t = 0: the flat equilibrium with the upward profile as velocity."""
+        self.integrator.status = "running"
+        self.integrator.n_steps = 0
+        self.step_index = 0
+        self.X = self.rest.copy()
+        self.V = np.zeros_like(self.rest)
+        self._constrain(self.X, self.V, 0.0)
+        self._event(0)
+        self.X_prev, self.V_prev = self.X, self.V
+
+    @property
+    def time(self) -> float:
+        """Time (s) of the current internal state."""
+        return self.step_index * self.dt
+
+    def checkpoint(self) -> dict:
+        """The whole state, as arrays; :meth:`restore` returns to it exactly."""
+        return {"step_index": np.int64(self.step_index), "X": self.X.copy(),
+                "V": self.V.copy(), "X_prev": self.X_prev.copy(), "V_prev": self.V_prev.copy(),
+                "dt": np.float64(self.dt)}
+
+    def restore(self, ckpt: dict) -> None:
+        """Return to a state taken by :meth:`checkpoint` (of an animator of the same scene)."""
+        if float(ckpt["dt"]) != self.dt or ckpt["X"].shape != self.X.shape:
+            raise ValueError("the checkpoint belongs to another scene (step or node count differ)")
+        self.integrator.status = "running"
+        self.step_index = int(ckpt["step_index"])
+        self.X, self.V = ckpt["X"].copy(), ckpt["V"].copy()
+        self.X_prev, self.V_prev = ckpt["X_prev"].copy(), ckpt["V_prev"].copy()
+
+    # -- stepping ---------------------------------------------------------------------------
+
+    def _event(self, n: int) -> None:
+        """The stroke's velocity event at the start of each quarter (gait.QUARTER_EVENTS)."""
+        if n % self.steps_per_quarter:
+            return
+        what = QUARTER_EVENTS[(n // self.steps_per_quarter) % 4]
+        dyn = self.dynamic
+        if what == "negate":
+            self.V[dyn] = -self.V[dyn]
+        else:
+            sign = 1.0 if what == "up" else -1.0
+            self.V[dyn] = 0.0
+            self.V[dyn, 2] = sign * self.profile[dyn]
+
+    def _constrain(self, X: np.ndarray, V: np.ndarray, t: float) -> None:
+        """Place the fluke gate: shifted with the hinge, rotated by the table's angle at t."""
+        h = self._hinge_nodes
+        hinge = X[h].mean(axis=0)
+        hinge_v = V[h].mean(axis=0)
+        phase = t / self.period
+        r, r_dot = ramp(t, self.fluke_ramp_s)
+        theta = r * self.fluke_table(phase)
+        theta_dot = (r * self.fluke_table.rate(phase) / self.period
+                     + r_dot * self.fluke_table(phase))
+        arm = self._fluke_arm @ rotation_y(theta).T
+        # written as rest + shift + (R - I) arm0 so that the flat pose is exactly the rest
+        X[self._fluke_nodes] = (self.rest[self._fluke_nodes] + (hinge - self.hinge0)
+                                + (arm - self._fluke_arm))
+        # d/dt of R(theta) a: theta_dot * (-z', 0, x') in the x-z plane
+        V[self._fluke_nodes] = hinge_v + theta_dot * np.column_stack(
+            [-arm[:, 2], np.zeros(len(arm)), arm[:, 0]]
+        )
+
+    def _advance(self, n_target: int) -> None:
+        """March the state forward to internal step ``n_target``."""
+        while self.step_index < n_target:
+            X, V = self.integrator.step(self.X, self.V)
+            n = self.step_index + 1
+            self._constrain(X, V, n * self.dt)
+            self.X_prev, self.V_prev = self.X, self.V
+            self.X, self.V, self.step_index = X, V, n
+            self._event(n)
+
+    def _locate(self, t: float) -> tuple[int, float]:
+        if not math.isfinite(t) or t < 0:
+            raise ValueError(f"time must be finite and >= 0, got {t}")
+        x = t / self.dt
+        m = math.floor(x + 1e-9)
+        frac = max(0.0, x - m)
+        if frac < 1e-9:
+            frac = 0.0
+        return m, frac
+
+    def _state_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        m, frac = self._locate(t)
+        need = m + (1 if frac > 0 else 0)
+        if need < self.step_index - 1 or (need == self.step_index - 1 and frac > 0):
+            raise ValueError(
+                f"t = {t} s is behind the animator (now at {self.time} s): it only marches "
+                "forward; restore a checkpoint or reset() to go back"
+            )
+        self._advance(need)
+        if m == self.step_index:
+            return self.X, self.V
+        # m == step_index - 1: between the previous and the current step
+        if frac == 0.0:
+            return self.X_prev, self.V_prev
+        return (self.X_prev + frac * (self.X - self.X_prev),
+                self.V_prev + frac * (self.V - self.V_prev))
+
+    def positions(self, t: float) -> np.ndarray:
+        """(N, 3) node positions (m) at time t (s)."""
+        return self._state_at(t)[0].copy()
+
+    def displacement(self, t: float) -> np.ndarray:
+        """(N, 3) displacement (m) of every node from rest at time t (s)."""
+        return self._state_at(t)[0] - self.rest
+
+    def velocity(self, t: float) -> np.ndarray:
+        """(N, 3) node velocities (m/s) at time t (s)."""
+        return self._state_at(t)[1].copy()

@@ -1,0 +1,852 @@
+"""The OpenFOAM whale-in-channel case: prepare, mesh and run it (``whale-adapter run-case``).
+
+The template case is ``foam_case/`` at the top of the repository. :func:`prepare_case` copies it,
+writes the scene's whale surface to ``constant/triSurface/whale.stl`` and sets the dictionaries
+with PyFoam's ``ParsedParameterFile`` from the scene's ``[case]`` and ``[flow]`` sections (the
+numbers themselves come from the pure function :func:`case_parameters`). :func:`mesh_case` runs
+blockMesh, snappyHexMesh and checkMesh; :func:`run_case` runs pimpleFoam (serial or on N MPI
+ranks) with the step-server (``whale-adapter serve``) in the background, shows progress, watches
+the mesh quality and writes ``<case>/adapter-summary.json``.
+
+Mesh watch: pimpleFoam runs with ``-debug-switch polyMesh=1``, which makes OpenFOAM v1912's
+``polyMesh::movePoints`` check every new mesh (``checkMeshMotion``) and print the smallest cell
+volume and the largest face non-orthogonality of every step. The log is parsed as it grows; when
+the non-orthogonality passes ``case.max_non_orthogonality`` the solver gets SIGUSR1, which
+``-opt-switch stopAtWriteNowSignal=10`` turns into "write this step and stop", so the run ends on
+a written, still valid mesh. See docs/case.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import AdapterError, SolverRunError
+
+_REPO = Path(__file__).resolve().parent.parent
+#: the template case
+TEMPLATE_DIR = _REPO / "foam_case"
+#: the boundary condition library built by scripts/build_plugin.sh
+PLUGIN_LIB = _REPO / "build" / "lib" / "libstepServerDisplacement.so"
+#: Debian's OpenFOAM wants this one variable (shared/notes/openfoam-on-debian.md)
+FOAM_DIR = "/usr/share/openfoam"
+#: what prepare_case records about the case (scene, derived numbers, mesh)
+CASE_RECORD = "adapter-case.json"
+SUMMARY = "adapter-summary.json"
+SOCKET_NAME = ".whale-adapter.sock"
+#: inflow turbulence: intensity and free-stream eddy-viscosity ratio
+TURBULENCE_INTENSITY = 0.01
+EDDY_VISCOSITY_RATIO = 10.0
+#: the signal pimpleFoam turns into "write now and stop" (-opt-switch stopAtWriteNowSignal)
+_STOP_SIGNAL = signal.SIGUSR1
+
+_TIME_RE = re.compile(r"^Time = ([-+0-9.eE]+)\s*$")
+_EXEC_RE = re.compile(r"^ExecutionTime = ([-+0-9.eE]+) s")
+_NONORTH_RE = re.compile(r"Mesh non-orthogonality Max: ([-+0-9.eE]+)")
+_MINVOL_RE = re.compile(r"Min volume = ([-+0-9.eE]+?)\.\s")
+_COURANT_RE = re.compile(r"^Courant Number mean: \S+ max: ([-+0-9.eE]+)")
+_PLUGIN_RE = re.compile(r"stepServer: ([0-9]+) requests, mean ([0-9.]+) us per exchange\s*$")
+_BROKEN_RE = re.compile(r"\*\*\*(Zero or negative cell volume|Error in face pyramids"
+                        r"|Number of non-orthogonality errors)")
+
+
+# --------------------------------------------------------------------------------------------
+# the numbers of a case
+
+
+@dataclass(frozen=True)
+class CaseParameters:
+    """Every number prepare_case writes into the dictionaries (SI units).
+
+    Attributes
+    ----------
+    domain_min, domain_max : (3,) corners of the blockMesh box (m).
+    cells : (3,) background cell counts along x, y, z.
+    cell_size : (3,) background cell size along x, y, z (m).
+    smallest_cell_m : edge of a cell at the highest surface refinement level (m).
+    delta_t : flow time step (s), a binary fraction (a multiple of 2**-k s).
+    time_precision : controlDict timePrecision: enough digits to name every time exactly.
+    steps_per_write : time steps between writes.
+    n_steps : time steps of the run (a whole number of write intervals).
+    end_time : simulated end (s) = n_steps * delta_t.
+    location_in_mesh : (3,) a point in the water, upstream of the rostrum (m).
+    near_box_min, near_box_max : (3,) the refinement box around the whale (m).
+    k_inlet, omega_inlet : inflow turbulence (m2/s2, 1/s).
+    ranks : MPI ranks (1 is serial).
+    """
+
+    domain_min: tuple
+    domain_max: tuple
+    cells: tuple
+    cell_size: tuple
+    smallest_cell_m: float
+    delta_t: float
+    time_precision: int
+    steps_per_write: int
+    n_steps: int
+    end_time: float
+    location_in_mesh: tuple
+    near_box_min: tuple
+    near_box_max: tuple
+    k_inlet: float
+    omega_inlet: float
+    ranks: int
+
+
+def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None) -> CaseParameters:
+    """The case's numbers from the scene and the whale's bounding box.
+
+    Parameters
+    ----------
+    scene : a :class:`~adapter.scene.Scene`.
+    bounds_min, bounds_max : (3,) the whale surface's bounding box (m).
+    ranks : MPI ranks; None takes ``scene.case.ranks``.
+
+    The domain reaches ``upstream`` body lengths before the rostrum, ``downstream`` after the
+    flukes and ``half_width`` to each side and above and below the body's centre. The time step
+    is ``0.5 * smallest cell / U`` unless ``case.dt_s > 0``; either is rounded down so that the
+    write interval (one stroke cycle / ``writes_per_cycle``) is a whole number of steps, then
+    down to a binary fraction (:func:`_binary_step`), and the end time is rounded up to a whole
+    number of write intervals (at most a tenth of one short) so that a run ends on a
+    written (restartable) time.
+    """
+    c = scene.case
+    length = scene.geometry.length_m
+    lo = np.asarray(bounds_min, dtype=float)
+    hi = np.asarray(bounds_max, dtype=float)
+    centre = 0.5 * (lo + hi)
+    dmin = np.array([lo[0] - c.upstream * length, centre[1] - c.half_width * length,
+                     centre[2] - c.half_width * length])
+    dmax = np.array([hi[0] + c.downstream * length, centre[1] + c.half_width * length,
+                     centre[2] + c.half_width * length])
+    cells = np.maximum(1, np.round((dmax - dmin) / c.background_cell_m)).astype(int)
+    size = (dmax - dmin) / cells
+    smallest = float(size.min()) / 2 ** c.refinement[1]
+    speed = scene.flow.speed_m_s
+    dt = c.dt_s if c.dt_s > 0 else 0.5 * smallest / speed
+    write_interval = scene.period_s / c.writes_per_cycle
+    steps_per_write = max(1, math.ceil(write_interval / dt * (1 - 1e-12)))
+    dt = _binary_step(write_interval / steps_per_write)
+    write_interval = steps_per_write * dt
+    end = c.end_time_s if c.end_time_s > 0 else c.cycles * scene.period_s
+    # whole write intervals; up to a tenth of one short of the end asked for (the binary step
+    # makes the interval a little shorter than a stroke cycle / writes_per_cycle)
+    n_writes = max(1, math.ceil(end / write_interval - 0.1))
+    n_steps = n_writes * steps_per_write
+    # a point in the water halfway between the inlet and the rostrum, off any cell face
+    location = (float(lo[0] - 0.5 * c.upstream * length + 0.1234567 * size[0]),
+                float(centre[1] + 0.1234567 * size[1]), float(centre[2] + 0.1234567 * size[2]))
+    grow = 0.1 * length
+    k = 1.5 * (TURBULENCE_INTENSITY * speed) ** 2
+    omega = k / (EDDY_VISCOSITY_RATIO * scene.flow.nu_m2_s)
+    return CaseParameters(
+        domain_min=tuple(float(v) for v in dmin),
+        domain_max=tuple(float(v) for v in dmax),
+        cells=tuple(int(v) for v in cells),
+        cell_size=tuple(float(v) for v in size),
+        smallest_cell_m=smallest,
+        delta_t=dt,
+        time_precision=_time_precision(dt),
+        steps_per_write=steps_per_write,
+        n_steps=n_steps,
+        end_time=n_steps * dt,
+        location_in_mesh=location,
+        near_box_min=tuple(float(v) for v in lo - grow),
+        near_box_max=tuple(float(v) for v in hi + grow),
+        k_inlet=k,
+        omega_inlet=omega,
+        ranks=int(ranks if ranks is not None else c.ranks),
+    )
+
+
+def _binary_step(dt: float) -> float:
+    """``dt`` rounded down to a multiple of 2**-k s, with k >= 10 and at least 64 such quanta.
+
+    OpenFOAM adds deltaT to the time every step and names written times with timePrecision
+    digits; with a binary-fraction step every sum is exact and every name is the exact value,
+    so a restart from a written time reaches the same times, bit for bit, as the first run
+    (and the step-server is asked for the same times).
+    """
+    k = max(10, math.ceil(math.log2(64.0 / dt)))
+    return math.floor(dt * 2.0**k) / 2.0**k
+
+
+def _time_precision(dt: float) -> int:
+    """Significant digits that print every multiple of ``dt`` below 10**5 s exactly."""
+    k = max(10, math.ceil(math.log2(64.0 / dt))) if dt > 0 else 10
+    return k + 5
+
+
+# --------------------------------------------------------------------------------------------
+# preparing
+
+
+def _parsed(path: Path):
+    from PyFoam.RunDictionary.ParsedParameterFile import ParsedParameterFile
+
+    # comments are dropped: PyFoam re-attaches them to the wrong entries when it writes
+    return ParsedParameterFile(str(path), preserveComments=False)
+
+
+def _vector(v) -> str:
+    return "(" + " ".join(repr(float(x)) for x in v) + ")"
+
+
+def _uniform(v) -> str:
+    return "uniform " + (_vector(v) if np.ndim(v) else repr(float(v)))
+
+
+def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: bool = False,
+                 scene_file: str | os.PathLike | None = None, surface=None) -> CaseParameters:
+    """Make a ready-to-mesh case in ``case_dir`` from the template and the scene.
+
+    Parameters
+    ----------
+    scene : a :class:`~adapter.scene.Scene`.
+    case_dir : folder to create; it must not hold a case yet (no ``system/controlDict``).
+    ranks : MPI ranks (decomposeParDict); None takes ``scene.case.ranks``.
+    static_whale : the whale patch gets ``fixedValue uniform (0 0 0)`` instead of the
+        step-server boundary condition, and the plugin library is not loaded (a flow-only case,
+        no server needed).
+    scene_file : the scene's TOML file, recorded so that the step-server loads the same scene.
+    surface : a :class:`~adapter.geometry.WhaleSurface`; None builds the scene's.
+
+    Returns the :class:`CaseParameters` written; they are also recorded in
+    ``<case>/adapter-case.json``.
+    """
+    case = Path(case_dir)
+    if (case / "system" / "controlDict").exists():
+        raise AdapterError(
+            f"{case} already holds a case; run it with `whale-adapter run-case --case {case}`, "
+            "or remove it / choose another --case to prepare a new one"
+        )
+    if not (TEMPLATE_DIR / "system" / "controlDict").is_file():
+        raise AdapterError(f"the template case {TEMPLATE_DIR} is missing; reinstall from the "
+                           "repository (pip install -e .)")
+    if surface is None:
+        from .geometry import build_surface
+
+        surface = build_surface(scene)
+    case.mkdir(parents=True, exist_ok=True)
+    shutil.copytree(TEMPLATE_DIR, case, dirs_exist_ok=True)
+    stl = case / "constant" / "triSurface" / "whale.stl"
+    surface.write(stl)
+    pts = np.asarray(surface.points)
+    params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks)
+    _write_dictionaries(case, scene, params, static_whale)
+    record = {
+        "scene_file": str(Path(scene_file).resolve()) if scene_file else None,
+        "preset": scene.name,
+        "static_whale": static_whale,
+        "length_m": scene.geometry.length_m,
+        "period_s": scene.period_s,
+        "speed_m_s": scene.flow.speed_m_s,
+        "max_non_orthogonality": scene.case.max_non_orthogonality,
+        "surface_nodes": int(len(pts)),
+        "parameters": asdict(params),
+    }
+    _write_json(case / CASE_RECORD, record)
+    return params
+
+
+def _write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool) -> None:
+    c = scene.case
+    d = _parsed(case / "system" / "blockMeshDict")
+    for axis, lo, hi, n in zip("xyz", p.domain_min, p.domain_max, p.cells, strict=True):
+        d[f"{axis}min"] = lo
+        d[f"{axis}max"] = hi
+        d[f"n{axis}"] = n
+    d.writeFile()
+
+    d = _parsed(case / "system" / "snappyHexMeshDict")
+    d["geometry"]["nearWhale"]["min"] = _vector(p.near_box_min)
+    d["geometry"]["nearWhale"]["max"] = _vector(p.near_box_max)
+    cm = d["castellatedMeshControls"]
+    cm["refinementSurfaces"]["whale"]["level"] = f"({c.refinement[0]} {c.refinement[1]})"
+    near = max(0, c.refinement[0] - 1)
+    cm["refinementRegions"]["nearWhale"]["levels"] = f"(({near} {near}))"
+    cm["locationInMesh"] = _vector(p.location_in_mesh)
+    d.writeFile()
+
+    d = _parsed(case / "system" / "controlDict")
+    if static_whale:
+        del d["libs"]
+    else:
+        d["libs"] = [f'"{_plugin_lib()}"']
+    d["endTime"] = p.end_time
+    d["deltaT"] = p.delta_t
+    d["timePrecision"] = p.time_precision
+    d["writeInterval"] = p.steps_per_write
+    d["functions"]["forces"]["rhoInf"] = scene.flow.rho_kg_m3
+    d.writeFile()
+
+    d = _parsed(case / "system" / "decomposeParDict")
+    d["numberOfSubdomains"] = p.ranks
+    d["coeffs"]["n"] = f"({p.ranks} 1 1)"
+    d.writeFile()
+
+    d = _parsed(case / "constant" / "transportProperties")
+    d["nu"] = scene.flow.nu_m2_s
+    d.writeFile()
+
+    d = _parsed(case / "constant" / "turbulenceProperties")
+    d["simulationType"] = "laminar" if c.turbulence == "laminar" else "RAS"
+    d["RAS"]["RASModel"] = "kOmegaSST"
+    d.writeFile()
+
+    zero = case / "0.orig"
+    d = _parsed(zero / "U")
+    d["Uinlet"] = _vector((scene.flow.speed_m_s, 0.0, 0.0))
+    d.writeFile()
+    d = _parsed(zero / "k")
+    d["kInlet"] = p.k_inlet
+    d.writeFile()
+    d = _parsed(zero / "omega")
+    d["omegaInlet"] = p.omega_inlet
+    d.writeFile()
+    d = _parsed(zero / "pointDisplacement")
+    if static_whale:
+        d["boundaryField"]["whale"] = {"type": "fixedValue", "value": "uniform (0 0 0)"}
+    else:
+        d["boundaryField"]["whale"] = {
+            "type": "stepServerDisplacement",
+            "socket": f'"$FOAM_CASE/{SOCKET_NAME}"',
+            "connectTimeout": 10,
+            "replyTimeout": 120,
+            "rhoInf": scene.flow.rho_kg_m3,
+            "value": "uniform (0 0 0)",
+        }
+    d.writeFile()
+
+
+def _plugin_lib() -> Path:
+    return Path(os.environ.get("WHALE_PLUGIN_LIB", PLUGIN_LIB))
+
+
+def _write_json(path: Path, data: dict) -> None:
+    path.write_text(json.dumps(data, indent=2) + "\n")
+
+
+def read_record(case_dir) -> dict:
+    """The record prepare_case wrote (``<case>/adapter-case.json``)."""
+    path = Path(case_dir) / CASE_RECORD
+    if not path.is_file():
+        raise AdapterError(f"{path} is missing: {case_dir} was not made by "
+                           "`whale-adapter run-case`; prepare a case with --scene/--preset")
+    return json.loads(path.read_text())
+
+
+# --------------------------------------------------------------------------------------------
+# running OpenFOAM utilities
+
+
+def foam_env() -> dict:
+    """The environment for Debian's OpenFOAM binaries (WM_PROJECT_DIR set when unset)."""
+    env = dict(os.environ)
+    env.setdefault("WM_PROJECT_DIR", FOAM_DIR)
+    return env
+
+
+def _check_foam() -> None:
+    if shutil.which("pimpleFoam") is None:
+        raise SolverRunError("OpenFOAM is not on PATH (no pimpleFoam); install it with "
+                             "scripts/install_openfoam.sh")
+
+
+def run_utility(case_dir, args: list, log_name: str | None = None) -> Path:
+    """Run one OpenFOAM utility in the case, its output to ``log.<utility>``.
+
+    Raises :class:`~adapter.errors.SolverRunError` naming the log when it fails.
+    """
+    case = Path(case_dir)
+    log = case / f"log.{log_name or Path(args[0]).name}"
+    with open(log, "w") as fh:
+        rc = subprocess.call(args, cwd=case, stdout=fh, stderr=subprocess.STDOUT, env=foam_env())
+    text = log.read_text(errors="replace")
+    if rc != 0 or "FOAM FATAL" in text:
+        raise SolverRunError(f"{args[0]} failed (exit code {rc}); see {log}")
+    return log
+
+
+def _restore_zero(case: Path) -> None:
+    zero = case / "0"
+    if not zero.exists():
+        shutil.copytree(case / "0.orig", zero)
+
+
+def mesh_case(case_dir) -> dict:
+    """blockMesh, snappyHexMesh -overwrite and checkMesh in a prepared case.
+
+    Returns the mesh's facts parsed from checkMesh: cells, whale_faces, whale_points,
+    max_non_orthogonality, max_skewness, mesh_ok; also recorded in adapter-case.json. Raises
+    :class:`~adapter.errors.SolverRunError` when a utility fails or the whale patch is missing.
+    """
+    _check_foam()
+    case = Path(case_dir)
+    t0 = time.perf_counter()
+    run_utility(case, ["blockMesh"])
+    run_utility(case, ["snappyHexMesh", "-overwrite"])
+    log = run_utility(case, ["checkMesh"])
+    info = parse_check_mesh(log.read_text(errors="replace"))
+    info["mesh_s"] = round(time.perf_counter() - t0, 2)
+    if not info.get("whale_faces"):
+        raise SolverRunError(f"snappyHexMesh made no whale patch; see {case / 'log.snappyHexMesh'}"
+                             " (is locationInMesh in the water?)")
+    _restore_zero(case)
+    record_path = case / CASE_RECORD
+    if record_path.is_file():
+        record = json.loads(record_path.read_text())
+        record["mesh"] = info
+        _write_json(record_path, record)
+    return info
+
+
+def parse_check_mesh(text: str) -> dict:
+    """Cells, whale patch size and quality from a checkMesh log."""
+    info: dict = {}
+    m = re.search(r"^\s*cells:\s+(\d+)", text, re.M)
+    if m:
+        info["cells"] = int(m.group(1))
+    m = re.search(r"^\s*whale\s+(\d+)\s+(\d+)\s", text, re.M)
+    if m:
+        info["whale_faces"], info["whale_points"] = int(m.group(1)), int(m.group(2))
+    m = re.search(r"Mesh non-orthogonality Max: ([-+0-9.eE]+)", text)
+    if m:
+        info["max_non_orthogonality"] = float(m.group(1))
+    m = re.search(r"Max skewness = ([-+0-9.eE]+)", text)
+    if m:
+        info["max_skewness"] = float(m.group(1))
+    info["mesh_ok"] = "Mesh OK." in text
+    return info
+
+
+# --------------------------------------------------------------------------------------------
+# watching the solver log
+
+
+class LogWatch:
+    """Follows a pimpleFoam log as it grows and keeps what the run reports.
+
+    Attributes: times (every ``Time =``), seen (wall clock when each appeared), exec_times
+    (``ExecutionTime``, s), max_non_orth (deg) and min_volume (m^3) over every mesh motion
+    check, max_courant, plugin (requests, mean us), broken (the first line reporting an invalid
+    mesh, or None).
+    """
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self._pos = 0
+        self._rest = ""
+        self.times: list = []
+        self.seen: list = []
+        self.exec_times: list = []
+        self.max_non_orth = float("nan")
+        self.last_non_orth = float("nan")
+        self.min_volume = float("nan")
+        self.max_courant = float("nan")
+        self.plugin: tuple | None = None
+        self.broken: str | None = None
+
+    def poll(self) -> None:
+        """Read what was appended since the last call."""
+        try:
+            with open(self.path, errors="replace") as fh:
+                fh.seek(self._pos)
+                chunk = fh.read()
+                self._pos = fh.tell()
+        except FileNotFoundError:
+            return
+        lines = (self._rest + chunk).split("\n")
+        self._rest = lines.pop()
+        for line in lines:
+            self.feed(line)
+
+    def feed(self, line: str) -> None:
+        """Take one log line."""
+        line = re.sub(r"^\[\d+\] ", "", line)
+        if m := _TIME_RE.match(line):
+            self.times.append(float(m.group(1)))
+            self.seen.append(time.perf_counter())
+        elif m := _EXEC_RE.match(line):
+            self.exec_times.append(float(m.group(1)))
+        elif m := _NONORTH_RE.search(line):
+            v = float(m.group(1))
+            self.last_non_orth = v
+            self.max_non_orth = _nanmax(self.max_non_orth, v)
+        elif m := _MINVOL_RE.search(line):
+            self.min_volume = _nanmin(self.min_volume, float(m.group(1)))
+        elif m := _COURANT_RE.match(line):
+            self.max_courant = _nanmax(self.max_courant, float(m.group(1)))
+        elif m := _PLUGIN_RE.search(line):
+            self.plugin = (int(m.group(1)), float(m.group(2)))
+        if self.broken is None and _BROKEN_RE.search(line):
+            self.broken = line.strip()
+
+    def seconds_per_step(self) -> float:
+        """Mean wall seconds per step, leaving out the first (start-up) step.
+
+        Measured from when each ``Time =`` line appeared in the log (polled every 0.1 s), so it
+        includes the time the solver waits for the step-server."""
+        s = self.seen
+        if len(s) >= 3:
+            return (s[-1] - s[0]) / (len(s) - 1)
+        return float("nan")
+
+    def cpu_seconds_per_step(self) -> float:
+        """Mean CPU seconds per step of the (master) solver process, from ExecutionTime."""
+        e = self.exec_times
+        if len(e) >= 3:
+            return (e[-1] - e[0]) / (len(e) - 1)
+        if e:
+            return e[-1] / len(e)
+        return float("nan")
+
+
+def _nanmax(a: float, b: float) -> float:
+    return b if math.isnan(a) else max(a, b)
+
+
+def _nanmin(a: float, b: float) -> float:
+    return b if math.isnan(a) else min(a, b)
+
+
+class _Progress:
+    """One progress line: simulated time / end time, s per step, ETA, mesh quality."""
+
+    def __init__(self, end_time: float, start_time: float, stream=sys.stderr):
+        self.end = end_time
+        self.start = start_time
+        self.stream = stream
+        self.tty = stream.isatty()
+        self.t_wall = time.perf_counter()
+        self.last_print = 0.0
+        self.last_line = ""
+
+    def show(self, watch: LogWatch, final: bool = False) -> None:
+        if not watch.times:
+            return
+        now = time.perf_counter()
+        if not final and not self.tty and now - self.last_print < 10:
+            return
+        t = watch.times[-1]
+        steps = len(watch.times)
+        per_step = (now - self.t_wall) / steps
+        remaining = (self.end - t) / max(t - self.start, 1e-12) * (now - self.t_wall)
+        line = (f"pimpleFoam  t = {t:.4g} / {self.end:.4g} s  step {steps}  "
+                f"{per_step:.2f} s/step  ETA {remaining:.0f} s  "
+                f"non-orth {watch.last_non_orth:.1f} deg (max {watch.max_non_orth:.1f})")
+        if line == self.last_line and not final:
+            return
+        self.last_line = line
+        self.last_print = now
+        if self.tty:
+            print("\r" + line, end="\n" if final else "", file=self.stream, flush=True)
+        else:
+            print(line, file=self.stream, flush=True)
+
+
+# --------------------------------------------------------------------------------------------
+# running the case
+
+
+def _time_dirs(case: Path) -> list:
+    out = []
+    for p in case.iterdir():
+        if p.is_dir():
+            try:
+                out.append((float(p.name), p))
+            except ValueError:
+                pass
+    return sorted(out)
+
+
+def _server_command(case: Path, record: dict) -> list:
+    cmd = [sys.executable, "-m", "adapter.cli", "serve", "--case", str(case)]
+    if record.get("scene_file"):
+        cmd += ["--scene", record["scene_file"]]
+    if record.get("preset"):
+        cmd += ["--preset", record["preset"]]
+    return cmd
+
+
+def _start_server(case: Path, record: dict, timeout: float = 60.0) -> subprocess.Popen:
+    sock = case / SOCKET_NAME
+    if sock.exists():
+        sock.unlink()
+    log = open(case / "log.server", "w")  # noqa: SIM115 - closed by _stop_server
+    proc = subprocess.Popen(_server_command(case, record), cwd=case, stdout=log,
+                            stderr=subprocess.STDOUT, start_new_session=True)
+    proc._whale_log = log  # type: ignore[attr-defined]
+    t0 = time.perf_counter()
+    while not sock.exists():
+        if proc.poll() is not None:
+            log.close()
+            raise SolverRunError(f"the step-server stopped at start (exit code {proc.returncode});"
+                                 f" see {case / 'log.server'}")
+        if time.perf_counter() - t0 > timeout:
+            _stop_server(proc)
+            raise SolverRunError(f"the step-server made no socket {sock} within {timeout:.0f} s;"
+                                 f" see {case / 'log.server'}")
+        time.sleep(0.1)
+    return proc
+
+
+def _stop_server(proc: subprocess.Popen | None, grace: float = 15.0) -> None:
+    """Let the server finish (it exits after the clients' BYE and writes its statistics);
+    terminate it when it is still there after ``grace`` seconds."""
+    if proc is None:
+        return
+    try:
+        proc.wait(grace)
+    except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    log = getattr(proc, "_whale_log", None)
+    if log is not None:
+        log.close()
+
+
+def run_case(case_dir, *, ranks: int | None = None, progress: bool = True) -> dict:
+    """Run pimpleFoam on a prepared case with the step-server, and summarise the run.
+
+    Meshes the case first when it has no mesh. Serial for one rank, otherwise decomposePar,
+    ``mpirun -np N pimpleFoam -parallel`` and reconstructPar. A case that has written times
+    continues from the latest (controlDict ``startFrom latestTime``).
+
+    Returns the summary also written to ``<case>/adapter-summary.json``. Raises
+    :class:`~adapter.errors.SolverRunError` naming the log when pimpleFoam fails, or when the
+    mesh watch stopped the run (after writing the summary).
+    """
+    _check_foam()
+    t_start = time.perf_counter()
+    case = Path(case_dir).resolve()
+    record = read_record(case)
+    ranks = int(ranks or record["parameters"]["ranks"])
+    if not (case / "constant" / "polyMesh" / "owner").exists():
+        mesh_case(case)
+        record = read_record(case)
+    _restore_zero(case)
+    if ranks > 1:
+        d = _parsed(case / "system" / "decomposeParDict")
+        d["numberOfSubdomains"] = ranks
+        d["coeffs"]["n"] = f"({ranks} 1 1)"
+        d.writeFile()
+    static = bool(record.get("static_whale"))
+    if not static and not _plugin_lib().is_file():
+        raise SolverRunError(f"the boundary condition library {_plugin_lib()} is missing; build "
+                             "it with scripts/build_plugin.sh")
+    start_time = _time_dirs(case)[-1][0] if _time_dirs(case) else 0.0
+    end_time = float(_parsed(case / "system" / "controlDict")["endTime"])
+    solver = ["pimpleFoam", "-debug-switch", "polyMesh=1",
+              "-opt-switch", f"stopAtWriteNowSignal={int(_STOP_SIGNAL)}"]
+    server = None
+    stopped = None
+    watch = LogWatch(case / "log.pimpleFoam")
+    try:
+        if ranks > 1:
+            for p in case.glob("processor*"):
+                shutil.rmtree(p)
+            run_utility(case, ["decomposePar", "-force", "-latestTime"])
+            cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", str(ranks),
+                   *solver, "-parallel"]
+        else:
+            cmd = solver
+        if not static:
+            server = _start_server(case, record)
+        t_flow = time.perf_counter()
+        rc, stopped = _run_watched(case, cmd, watch, record, start_time, end_time, progress)
+        flow_wall = time.perf_counter() - t_flow
+    finally:
+        _stop_server(server)
+    if rc != 0 and stopped is None:
+        hint = f" ({watch.broken})" if watch.broken else ""
+        raise SolverRunError(
+            f"pimpleFoam failed (exit code {rc}){hint}; see {case / 'log.pimpleFoam'}")
+    if ranks > 1:
+        run_utility(case, ["reconstructPar", "-newTimes"])
+    (case / "case.foam").touch()
+    summary = summarise(case, watch, record, ranks, flow_wall, time.perf_counter() - t_start)
+    if stopped:
+        summary["stopped"] = stopped
+    _write_json(case / SUMMARY, summary)
+    if stopped:
+        raise SolverRunError(f"{stopped}; the run stopped at t = {summary['end_time_s']:.4g} s "
+                             f"with a written mesh; see {case / SUMMARY}")
+    return summary
+
+
+def _run_watched(case, cmd, watch, record, start_time, end_time, progress):
+    """Run the solver, follow its log; stop it (write now) when the mesh gets too distorted."""
+    limit = float(record.get("max_non_orthogonality", 80.0))
+    show = _Progress(end_time, start_time) if progress else None
+    stopped = None
+    with open(case / "log.pimpleFoam", "w") as log:
+        proc = subprocess.Popen(cmd, cwd=case, stdout=log, stderr=subprocess.STDOUT,
+                                env=foam_env(), start_new_session=True)
+        try:
+            while True:
+                rc = proc.poll()
+                watch.poll()
+                if stopped is None and (watch.max_non_orth > limit or watch.broken):
+                    what = (f"mesh non-orthogonality reached {watch.max_non_orth:.1f} deg "
+                            f"(limit case.max_non_orthogonality = {limit:g})")
+                    if watch.broken:
+                        what = f"the moved mesh is invalid ({watch.broken})"
+                    stopped = f"mesh watch: {what}"
+                    proc.send_signal(_STOP_SIGNAL)
+                if show:
+                    show.show(watch)
+                if rc is not None:
+                    break
+                time.sleep(0.1)
+        except BaseException:
+            os.killpg(proc.pid, signal.SIGTERM)
+            proc.wait()
+            raise
+    watch.poll()
+    if show:
+        show.show(watch, final=True)
+    return rc, stopped
+
+
+def read_forces(case_dir) -> np.ndarray:
+    """(T, 10) time, total, pressure and viscous force (N) on the whale from postProcessing.
+
+    Files of restarted runs are merged; a later file wins for a time present twice.
+    """
+    rows: dict = {}
+    base = Path(case_dir) / "postProcessing" / "forces"
+    files = sorted(base.glob("*/force*.dat"), key=lambda p: float(p.parent.name))
+    for f in files:
+        for line in f.read_text().splitlines():
+            if not line.strip() or line.startswith("#"):
+                continue
+            nums = [float(v) for v in re.findall(r"[-+0-9.eE]+(?:[eE][-+]?\d+)?",
+                                                 line.replace("(", " ").replace(")", " "))]
+            if len(nums) >= 10:
+                rows[nums[0]] = nums[:10]
+    if not rows:
+        return np.zeros((0, 10))
+    return np.array([rows[t] for t in sorted(rows)])
+
+
+def summarise(case: Path, watch: LogWatch, record: dict, ranks: int, flow_wall: float,
+              wall: float) -> dict:
+    """The run's summary (numbers for adapter-summary.json)."""
+    steps = len(watch.times)
+    step_s = watch.seconds_per_step()
+    adapter_s = float("nan")
+    if watch.plugin is not None:
+        adapter_s = watch.plugin[1] * 1e-6
+    stats_path = case / "adapter" / "server-stats.json"
+    stats = json.loads(stats_path.read_text()) if stats_path.is_file() else {}
+    mesh = record.get("mesh", {})
+    forces = read_forces(case)
+    period = float(record["period_s"])
+    drag = float("nan")
+    window = 0.0
+    if len(forces):
+        t = forces[:, 0]
+        sel = t >= t[-1] - period * (1 - 1e-9)
+        drag = float(forces[sel, 1].mean())
+        window = float(t[sel][-1] - t[sel][0])
+    summary = {
+        "case": str(case),
+        "preset": record.get("preset"),
+        "static_whale": bool(record.get("static_whale")),
+        "cells": mesh.get("cells"),
+        "steps": steps,
+        "ranks": ranks,
+        "end_time_s": watch.times[-1] if watch.times else None,
+        "delta_t_s": record["parameters"]["delta_t"],
+        "step_s": step_s,
+        "cpu_s_per_step": watch.cpu_seconds_per_step(),
+        "flow_s_per_step": step_s - (0.0 if math.isnan(adapter_s) else adapter_s),
+        "adapter_s_per_step": adapter_s,
+        "adapter_requests": watch.plugin[0] if watch.plugin else None,
+        "whale_points": mesh.get("whale_points"),
+        # from the step-server: summed over ranks (a point two ranks share counts twice)
+        "patch_points": stats.get("patch_points", mesh.get("whale_points")),
+        "max_mapping_distance_m": stats.get("max_mapping_distance_m"),
+        "worst_cell_quality": {
+            "max_non_orthogonality_deg": watch.max_non_orth,
+            "min_cell_volume_m3": watch.min_volume,
+            "initial_max_non_orthogonality_deg": mesh.get("max_non_orthogonality"),
+            "initial_max_skewness": mesh.get("max_skewness"),
+        },
+        "max_courant": watch.max_courant,
+        "drag_N": drag,
+        "drag_window_s": window,
+        "flow_wall_s": round(flow_wall, 2),
+        "wall_s": round(wall, 2),
+    }
+    return {k: (None if isinstance(v, float) and math.isnan(v) else v)
+            for k, v in summary.items()}
+
+
+# --------------------------------------------------------------------------------------------
+# command line
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "run-case",
+        help="prepare, mesh and run the OpenFOAM whale-in-channel case",
+        description="Prepare the case from the template (foam_case/) and the scene unless --case "
+        "already holds one, mesh it when it has no mesh, then run pimpleFoam with the "
+        "step-server and write adapter-summary.json.",
+    )
+    p.add_argument("--scene", help="scene TOML file (default: built-in default)")
+    p.add_argument("--preset", help="built-in preset: default, smoke, fine")
+    p.add_argument("--case", default=None, help="case folder (default: runs/<preset>)")
+    p.add_argument("--np", type=int, default=None, dest="ranks",
+                   help="MPI ranks (default: the scene's case.ranks)")
+    p.add_argument("--mesh-only", action="store_true", help="prepare and mesh, do not run")
+    p.add_argument("--static-whale", action="store_true",
+                   help="flow only: the whale does not move, no step-server or plugin needed")
+    p.set_defaults(func=_cmd_run_case)
+
+
+def _cmd_run_case(args: argparse.Namespace) -> int:
+    from .scene import load_scene
+
+    if args.ranks is not None and args.ranks < 1:
+        raise AdapterError(f"--np: expected at least 1 rank, got {args.ranks}")
+    case = Path(args.case or Path("runs") / (args.preset or "default"))
+    exists = (case / "system" / "controlDict").exists()
+    if exists and (args.scene or args.preset or args.static_whale):
+        raise AdapterError(f"{case} already holds a case; --scene/--preset/--static-whale only "
+                           "prepare new cases: drop them to run it, or choose another --case")
+    if not exists:
+        scene = load_scene(args.scene, preset=args.preset)
+        params = prepare_case(scene, case, ranks=args.ranks, static_whale=args.static_whale,
+                              scene_file=args.scene)
+        print(f"prepared {case}: background {params.cells[0]}x{params.cells[1]}x{params.cells[2]}"
+              f" cells, smallest cell {params.smallest_cell_m:.3g} m, dt {params.delta_t:.4g} s,"
+              f" {params.n_steps} steps to t = {params.end_time:.4g} s")
+    if args.mesh_only or not (case / "constant" / "polyMesh" / "owner").exists():
+        info = mesh_case(case)
+        print(f"meshed {case}: {info.get('cells')} cells, whale patch {info.get('whale_faces')} "
+              f"faces / {info.get('whale_points')} points, max non-orthogonality "
+              f"{info.get('max_non_orthogonality')} deg, {info['mesh_s']} s")
+        if args.mesh_only:
+            return 0
+    summary = run_case(case, ranks=args.ranks)
+    print(json.dumps(summary, indent=2))
+    return 0

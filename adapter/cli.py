@@ -1,0 +1,59 @@
+"""The ``whale-adapter`` command line.
+
+Each sub-command lives in the module of its idea and registers itself here through a
+``register(subparsers)`` function: dry-run and calibrate (:mod:`adapter.dryrun`,
+:mod:`adapter.calibration`), geometry (:mod:`adapter.geometry`), serve (:mod:`adapter.server`),
+run-case (:mod:`adapter.case`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from .errors import AdapterError
+
+#: modules that register sub-commands; a module that is not there yet is skipped
+_COMMAND_MODULES = (
+    "adapter.geometry",
+    "adapter.dryrun",
+    "adapter.calibration",
+    "adapter.server",
+    "adapter.case",
+    "adapter.numerics",
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="whale-adapter",
+        description="Spring-mass right whale animation coupled to OpenFOAM (see README.md).",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name in _COMMAND_MODULES:
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name != name:
+                raise
+            continue
+        module.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except AdapterError as exc:
+        print(f"whale-adapter {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"whale-adapter {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,29 @@
+"""The project's named exceptions.
+
+Each subclasses the built-in exception it refines, and each message says what was wrong and
+what to do next.
+"""
+
+
+class AdapterError(Exception):
+    """Base class of every error the adapter raises on purpose."""
+
+
+class SceneError(AdapterError, ValueError):
+    """A scene file has an unknown key or a bad value; the message names its path in the file."""
+
+
+class GeometryError(AdapterError, ValueError):
+    """A surface mesh cannot be animated: open, non-manifold, NaN or duplicate points, ..."""
+
+
+class UnstableError(AdapterError, FloatingPointError):
+    """The spring-mass model blew up (NaN or runaway motion); the message names a stable step."""
+
+
+class ProtocolError(AdapterError, ConnectionError):
+    """A peer broke the step-server wire protocol (docs/protocol.md)."""
+
+
+class SolverRunError(AdapterError, RuntimeError):
+    """An OpenFOAM utility or solver failed; the message points at its log file."""

@@ -1,0 +1,127 @@
+"""The stroke: initial velocity profiles (paper section 3.1) and the fluke as a hinged gate.
+
+A full cycle, quarter by quarter (each quarter lasts T / 4 for the stroke period T):
+
+    0. from the flat equilibrium, the *upward* profile as initial velocity;
+    1. at the top of the upstroke every velocity is negated, and the whale runs back the same
+       time toward equilibrium;
+    2. the *downward* profile (the upward one negated) replaces the velocities;
+    3. at the bottom every velocity is negated again.
+
+Cycles repeat. The fluke (every node behind the tail base) is not part of the spring system:
+it is a gate hinged at the tail base, shifted with it and rotated by the angle of a table
+interpolated piecewise linearly in time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import SceneError
+from .scene import DATA_DIR
+
+#: what happens to the velocities at the start of each quarter of the cycle
+QUARTER_EVENTS = ("up", "negate", "down", "negate")
+
+
+def velocity_profile(s: np.ndarray, dynamic: np.ndarray, stroke, tail_base_s: float) -> np.ndarray:
+    """(N,) upward initial speed of every node (m/s); zero on the fluke (kinematic) nodes.
+
+    With u = (s - pivot) / (s_C - pivot) behind the pivot and w = (pivot - s) / pivot ahead:
+
+    - tail region: ``tail_speed * u ** tail_exponent``;
+    - head region: ``head_speed * w ** head_exponent * (w - d) / (1 - d)``, d being w at
+      ``head_node``: the rostrum moves with the tail, while between ``head_node`` and the
+      pivot (the flipper region) the body moves against them, as observed (paper, section 1);
+      ``head_node = 0`` drops the dip.
+
+    With ``recoil = "heave"`` the profile's mean over the moving nodes (unit masses) is removed
+    too, so that the stroke carries no net vertical momentum.
+    """
+    p = stroke.pivot
+    u = np.clip((s - p) / (tail_base_s - p), 0, None)
+    w = np.clip((p - s) / p, 0, None)
+    tail = stroke.tail_speed * u**stroke.tail_exponent
+    if stroke.head_node > 0:
+        d = (p - stroke.head_node) / p
+        head = stroke.head_speed * w**stroke.head_exponent * (w - d) / (1 - d)
+    else:
+        head = stroke.head_speed * w ** stroke.head_exponent
+    v = np.where(s >= p, tail, head)
+    v = np.where(dynamic, v, 0.0)
+    if stroke.recoil == "heave":
+        v = np.where(dynamic, v - v[dynamic].mean(), 0.0)
+    return stroke.velocity_scale * v
+
+
+@dataclass(frozen=True)
+class FlukeTable:
+    """Fluke angle through one cycle: ``phase`` in [0, 1), ``angle`` in radians."""
+
+    phase: np.ndarray
+    angle: np.ndarray
+
+    def __post_init__(self):
+        # the periodic closure, built once: the table is read at every internal step
+        object.__setattr__(self, "_xp", np.r_[self.phase, self.phase[0] + 1.0])
+        object.__setattr__(self, "_fp", np.r_[self.angle, self.angle[0]])
+
+    def __call__(self, phase: float) -> float:
+        """Angle (rad) at a phase, piecewise linear and periodic."""
+        return float(np.interp(phase % 1.0, self._xp, self._fp))
+
+    def rate(self, phase: float) -> float:
+        """d angle / d phase (rad per cycle) of the piecewise linear interpolant."""
+        xp, fp = self._xp, self._fp
+        k = int(np.clip(np.searchsorted(xp, phase % 1.0, side="right") - 1, 0, len(xp) - 2))
+        return float((fp[k + 1] - fp[k]) / (xp[k + 1] - xp[k]))
+
+
+def load_fluke_table(name: str, base_dir: str | Path = ".", scale: float = 1.0) -> FlukeTable:
+    """Read a fluke angle table: ``default`` or a CSV with columns ``phase,angle_deg``.
+
+    Lines starting with ``#`` are comments. Phases must rise strictly within [0, 1).
+    """
+    path = DATA_DIR / "fluke_angles.csv" if name == "default" else Path(base_dir) / name
+    where = f"stroke.fluke_table ({path})"
+    if not path.is_file():
+        raise SceneError(f"{where}: file not found; give a CSV with columns phase,angle_deg")
+    rows = [ln.strip() for ln in path.read_text().splitlines()
+            if ln.strip() and not ln.lstrip().startswith("#")]
+    if not rows or rows[0].replace(" ", "") != "phase,angle_deg":
+        raise SceneError(f"{where}: the first row must be the header phase,angle_deg")
+    try:
+        data = np.array([[float(x) for x in r.split(",")] for r in rows[1:]])
+    except ValueError as exc:
+        raise SceneError(f"{where}: {exc}") from None
+    if data.ndim != 2 or data.shape[1] != 2 or len(data) < 2:
+        raise SceneError(f"{where}: expected at least two rows of two numbers")
+    if not np.isfinite(data).all():
+        raise SceneError(f"{where}: NaN or infinite values")
+    phase, angle = data[:, 0], data[:, 1]
+    if phase[0] < 0 or phase[-1] >= 1 or (np.diff(phase) <= 0).any():
+        raise SceneError(f"{where}: phases must rise strictly within [0, 1)")
+    if np.abs(angle).max() * scale >= 90:
+        raise SceneError(f"{where}: angles must stay within +-90 degrees")
+    return FlukeTable(phase, np.radians(angle * scale))
+
+
+def ramp(t: float, duration: float) -> tuple[float, float]:
+    """Start-up ramp (value, derivative): 0 -> 1 over ``duration`` as a cubic smoothstep.
+
+    The whale starts flat (paper, section 3.1) while the table may start pitched; the ramp
+    brings the fluke angle in without a jump in the geometry handed to a flow solver.
+    """
+    if duration <= 0 or t >= duration:
+        return 1.0, 0.0
+    x = max(t, 0.0) / duration
+    return x * x * (3 - 2 * x), 6 * x * (1 - x) / duration
+
+
+def rotation_y(theta: float) -> np.ndarray:
+    """Rotation in the x-z plane that raises +x toward +z by ``theta`` (rad)."""
+    c, s = np.cos(theta), np.sin(theta)
+    return np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])

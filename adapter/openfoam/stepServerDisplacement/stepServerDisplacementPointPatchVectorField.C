@@ -1,0 +1,465 @@
+/*---------------------------------------------------------------------------*\
+  =========                 |
+  \\      /  F ield         | OpenFOAM: The Open Source CFD Toolbox
+   \\    /   O peration     |
+    \\  /    A nd           | www.openfoam.com
+     \\/     M anipulation  |
+-------------------------------------------------------------------------------
+    Shape copied from OpenFOAM's oscillatingDisplacementPointPatchVectorField,
+    Copyright (C) 2011-2016 OpenFOAM Foundation, GPL-3.0-or-later.
+\*---------------------------------------------------------------------------*/
+
+#include "stepServerDisplacementPointPatchVectorField.H"
+#include "pointPatchFields.H"
+#include "addToRunTimeSelectionTable.H"
+#include "Time.H"
+#include "polyMesh.H"
+#include "fvMesh.H"
+#include "volFields.H"
+#include "pointFields.H"
+#include "points0MotionSolver.H"
+#include "turbulentTransportModel.H"
+
+#include <chrono>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+// * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * //
+
+namespace Foam
+{
+
+// * * * * * * * * * * * * * Private Member Functions  * * * * * * * * * * * //
+
+void stepServerDisplacementPointPatchVectorField::readEntries
+(
+    const dictionary& dict
+)
+{
+    socket_ = dict.getOrDefault<fileName>("socket", fileName::null);
+    host_ = dict.getOrDefault<string>("host", "127.0.0.1");
+    port_ = dict.getOrDefault<label>("port", 0);
+    token_ = dict.getOrDefault<string>("token", string::null);
+    connectTimeout_ = dict.getOrDefault<scalar>("connectTimeout", 5);
+    replyTimeout_ = dict.getOrDefault<scalar>("replyTimeout", 120);
+    rhoInf_ = dict.getOrDefault<scalar>("rhoInf", 1025);
+
+    if (dict.found("port") && (port_ < 1 || port_ > 65535))
+    {
+        FatalIOErrorInFunction(dict)
+            << "stepServer: port " << port_
+            << " out of range, expected 1..65535" << exit(FatalIOError);
+    }
+    if (dict.found("port") && dict.found("socket"))
+    {
+        FatalIOErrorInFunction(dict)
+            << "stepServer: give either socket (UNIX) or port (TCP), not both"
+            << exit(FatalIOError);
+    }
+    if (dict.found("host") && !dict.found("port"))
+    {
+        FatalIOErrorInFunction(dict)
+            << "stepServer: host given without port" << exit(FatalIOError);
+    }
+    if (!(connectTimeout_ > 0) || !(replyTimeout_ > 0))
+    {
+        FatalIOErrorInFunction(dict)
+            << "stepServer: connectTimeout " << connectTimeout_
+            << " and replyTimeout " << replyTimeout_
+            << " must be > 0 (seconds)" << exit(FatalIOError);
+    }
+    if (!(rhoInf_ > 0))
+    {
+        FatalIOErrorInFunction(dict)
+            << "stepServer: rhoInf " << rhoInf_ << " must be > 0 (kg/m3)"
+            << exit(FatalIOError);
+    }
+}
+
+
+stepServer::Endpoint
+stepServerDisplacementPointPatchVectorField::endpoint() const
+{
+    stepServer::Endpoint ep;
+    if (port_ > 0)
+    {
+        ep.host = host_;
+        ep.port = int(port_);
+    }
+    else if (socket_.empty())
+    {
+        // The global case: one socket for all ranks
+        ep.socketPath =
+            this->db().time().globalPath()/".whale-adapter.sock";
+    }
+    else
+    {
+        fileName s(socket_);
+        s.expand();
+        ep.socketPath = s;
+    }
+    ep.connectTimeout = connectTimeout_;
+    ep.replyTimeout = replyTimeout_;
+    return ep;
+}
+
+
+void stepServerDisplacementPointPatchVectorField::connect()
+{
+    const polyMesh& mesh = this->internalField().mesh()();
+
+    // Undeformed coordinates: the motion solver's own points0
+    // (points0 if present, else polyMesh/points from constant), not the
+    // current, possibly already moved, mesh points
+    const pointIOField points0(points0MotionSolver::points0IO(mesh));
+    if (points0.size() != mesh.nPoints())
+    {
+        FatalErrorInFunction
+            << "stepServer: " << points0.objectPath() << " has "
+            << points0.size() << " points, the mesh " << mesh.nPoints()
+            << exit(FatalError);
+    }
+
+    const labelList& meshPoints = this->patch().meshPoints();
+    std::vector<double> pts;
+    pts.reserve(3*meshPoints.size());
+    for (const label pointi : meshPoints)
+    {
+        const point& p = points0[pointi];
+        pts.push_back(p.x());
+        pts.push_back(p.y());
+        pts.push_back(p.z());
+    }
+
+    const stepServer::Endpoint ep(endpoint());
+    state_->client.reset(new stepServer::stepServerClient(ep));
+
+    try
+    {
+        state_->client->connect();
+    }
+    catch (const stepServer::stepServerError& e)
+    {
+        state_->failed = true;
+        FatalErrorInFunction
+            << "stepServer: " << e.what() << nl
+            << "    Is the step-server running for this case? Start it with:"
+            << nl << "        whale-adapter serve --case "
+            << this->db().time().globalPath().c_str()
+            << (ep.port > 0 ? "   (listening on TCP " + ep.describe() + ")" : std::string()).c_str()
+            << nl << "    and check the 'socket' (or 'port') entry of patch "
+            << this->patch().name() << " in pointDisplacement."
+            << exit(FatalError);
+    }
+
+    stepServer::Welcome w;
+    try
+    {
+        w = state_->client->hello
+        (
+            Pstream::myProcNo(), Pstream::nProcs(), token_, pts
+        );
+    }
+    catch (const stepServer::stepServerError& e)
+    {
+        state_->failed = true;
+        FatalErrorInFunction
+            << "stepServer: HELLO failed on patch " << this->patch().name()
+            << ": " << e.what() << exit(FatalError);
+    }
+
+    Info<< "stepServer: connected to " << ep.describe().c_str()
+        << " on patch " << this->patch().name()
+        << " (" << Pstream::nProcs() << " rank(s), master sent "
+        << meshPoints.size() << " points); max mapping distance "
+        << w.maxMappingDistance << " m, internal step "
+        << w.internalStep << " s" << endl;
+}
+
+
+void stepServerDisplacementPointPatchVectorField::patchForces
+(
+    vector& fp,
+    vector& fv
+) const
+{
+    const scalar nan = std::numeric_limits<scalar>::quiet_NaN();
+    fp = vector(nan, nan, nan);
+    fv = vector(nan, nan, nan);
+
+    const polyMesh& pMesh = this->internalField().mesh()();
+    if (!isA<fvMesh>(pMesh))
+    {
+        return;
+    }
+    const fvMesh& mesh = refCast<const fvMesh>(pMesh);
+    const label patchi = mesh.boundaryMesh().findPatchID(this->patch().name());
+    if (patchi < 0)
+    {
+        return;
+    }
+    const vectorField& Sf = mesh.Sf().boundaryField()[patchi];
+
+    scalar rho = rhoInf_;
+    if (mesh.foundObject<volScalarField>("p"))
+    {
+        const volScalarField& p = mesh.lookupObject<volScalarField>("p");
+        if (p.dimensions() == dimPressure)
+        {
+            rho = 1;
+        }
+        fp = rho*sum(p.boundaryField()[patchi]*Sf);
+    }
+
+    typedef incompressible::turbulenceModel icoTurbModel;
+    if (mesh.foundObject<icoTurbModel>(icoTurbModel::propertiesName))
+    {
+        const icoTurbModel& turb =
+            mesh.lookupObject<icoTurbModel>(icoTurbModel::propertiesName);
+
+        // Collective (grad(U) across processor patches): every rank gets
+        // here at every update, whatever its share of the patch
+        tmp<volSymmTensorField> tdevReff = turb.devReff();
+        fv = rhoInf_*sum(Sf & tdevReff().boundaryField()[patchi]);
+    }
+}
+
+
+void stepServerDisplacementPointPatchVectorField::logStats() const
+{
+    const label n = state_->nRequests;
+    const double meanUs = n > 0 ? 1e6*state_->exchangeSeconds/n : 0;
+    std::ostringstream os;
+    os << std::fixed << std::setprecision(1) << meanUs;
+    Info<< "stepServer: " << n << " requests, mean " << os.str().c_str()
+        << " us per exchange" << endl;
+}
+
+
+// * * * * * * * * * * * * * * * * Constructors  * * * * * * * * * * * * * * //
+
+stepServerDisplacementPointPatchVectorField::
+stepServerDisplacementPointPatchVectorField
+(
+    const pointPatch& p,
+    const DimensionedField<vector, pointMesh>& iF
+)
+:
+    fixedValuePointPatchField<vector>(p, iF),
+    socket_(),
+    host_("127.0.0.1"),
+    port_(0),
+    token_(),
+    connectTimeout_(5),
+    replyTimeout_(120),
+    rhoInf_(1025),
+    state_(std::make_shared<couplingState>())
+{}
+
+
+stepServerDisplacementPointPatchVectorField::
+stepServerDisplacementPointPatchVectorField
+(
+    const pointPatch& p,
+    const DimensionedField<vector, pointMesh>& iF,
+    const dictionary& dict
+)
+:
+    fixedValuePointPatchField<vector>(p, iF, dict, false),
+    port_(0),
+    connectTimeout_(5),
+    replyTimeout_(120),
+    rhoInf_(1025),
+    state_(std::make_shared<couplingState>())
+{
+    readEntries(dict);
+
+    // No connection here: utilities (decomposePar, ...) construct the field
+    // too. Without a value, start from zero displacement.
+    if (!dict.found("value"))
+    {
+        Field<vector>::operator=(Zero);
+    }
+}
+
+
+stepServerDisplacementPointPatchVectorField::
+stepServerDisplacementPointPatchVectorField
+(
+    const stepServerDisplacementPointPatchVectorField& ptf,
+    const pointPatch& p,
+    const DimensionedField<vector, pointMesh>& iF,
+    const pointPatchFieldMapper& mapper
+)
+:
+    fixedValuePointPatchField<vector>(ptf, p, iF, mapper),
+    socket_(ptf.socket_),
+    host_(ptf.host_),
+    port_(ptf.port_),
+    token_(ptf.token_),
+    connectTimeout_(ptf.connectTimeout_),
+    replyTimeout_(ptf.replyTimeout_),
+    rhoInf_(ptf.rhoInf_),
+    state_(std::make_shared<couplingState>())
+{}
+
+
+stepServerDisplacementPointPatchVectorField::
+stepServerDisplacementPointPatchVectorField
+(
+    const stepServerDisplacementPointPatchVectorField& ptf,
+    const DimensionedField<vector, pointMesh>& iF
+)
+:
+    fixedValuePointPatchField<vector>(ptf, iF),
+    socket_(ptf.socket_),
+    host_(ptf.host_),
+    port_(ptf.port_),
+    token_(ptf.token_),
+    connectTimeout_(ptf.connectTimeout_),
+    replyTimeout_(ptf.replyTimeout_),
+    rhoInf_(ptf.rhoInf_),
+    state_(ptf.state_)
+{}
+
+
+// * * * * * * * * * * * * * * * * Destructor  * * * * * * * * * * * * * * * //
+
+stepServerDisplacementPointPatchVectorField::
+~stepServerDisplacementPointPatchVectorField()
+{
+    if
+    (
+        state_ && state_.use_count() == 1
+     && state_->client && state_->client->connected()
+    )
+    {
+        logStats();
+        state_->client->bye();
+    }
+}
+
+
+// * * * * * * * * * * * * * * * Member Functions  * * * * * * * * * * * * * //
+
+void stepServerDisplacementPointPatchVectorField::updateCoeffs()
+{
+    if (this->updated())
+    {
+        return;
+    }
+
+    const Time& t = this->db().time();
+
+    const bool first = !state_->client;
+    if (first)
+    {
+        connect();
+    }
+
+    // Forces from the fields at this mesh update (last completed step);
+    // NaN for the first request of a connection
+    vector fp, fv;
+    patchForces(fp, fv);
+    if (first)
+    {
+        const scalar nan = std::numeric_limits<scalar>::quiet_NaN();
+        fp = vector(nan, nan, nan);
+        fv = fp;
+    }
+
+    std::vector<double> d;
+    try
+    {
+        const auto start = std::chrono::steady_clock::now();
+        d = state_->client->request
+        (
+            t.value(),
+            {fp.x(), fp.y(), fp.z()},
+            {fv.x(), fv.y(), fv.z()}
+        );
+        state_->exchangeSeconds += std::chrono::duration<double>
+        (
+            std::chrono::steady_clock::now() - start
+        ).count();
+        ++state_->nRequests;
+    }
+    catch (const stepServer::stepServerError& e)
+    {
+        state_->failed = true;
+        FatalErrorInFunction
+            << "stepServer: REQUEST at time " << t.timeName()
+            << " on patch " << this->patch().name() << " failed: "
+            << e.what() << exit(FatalError);
+    }
+
+    vectorField disp(this->size());
+    forAll(disp, i)
+    {
+        disp[i] = vector(d[3*i], d[3*i + 1], d[3*i + 2]);
+    }
+    this->operator==(disp);
+
+    fixedValuePointPatchField<vector>::updateCoeffs();
+}
+
+
+void stepServerDisplacementPointPatchVectorField::write(Ostream& os) const
+{
+    const Time& t = this->db().time();
+    if
+    (
+        state_->client && state_->client->connected()
+     && t.writeTime() && state_->lastWriteIndex != t.timeIndex()
+    )
+    {
+        state_->lastWriteIndex = t.timeIndex();
+        try
+        {
+            state_->client->write(t.value());
+        }
+        catch (const stepServer::stepServerError& e)
+        {
+            state_->failed = true;
+            FatalErrorInFunction
+                << "stepServer: WRITE at time " << t.timeName()
+                << " failed: " << e.what() << exit(FatalError);
+        }
+        logStats();
+    }
+
+    pointPatchField<vector>::write(os);
+    if (!socket_.empty())
+    {
+        os.writeEntry("socket", socket_);
+    }
+    if (port_ > 0)
+    {
+        os.writeEntry("host", host_);
+        os.writeEntry("port", port_);
+    }
+    if (!token_.empty())
+    {
+        os.writeEntry("token", token_);
+    }
+    os.writeEntry("connectTimeout", connectTimeout_);
+    os.writeEntry("replyTimeout", replyTimeout_);
+    os.writeEntry("rhoInf", rhoInf_);
+    writeEntry("value", os);
+}
+
+
+// * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * //
+
+makePointPatchTypeField
+(
+    pointPatchVectorField,
+    stepServerDisplacementPointPatchVectorField
+);
+
+// * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * //
+
+} // End namespace Foam
+
+// ************************************************************************* //

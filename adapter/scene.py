@@ -1,0 +1,355 @@
+"""The scene: one TOML file holding every parameter of a run.
+
+A scene is a tree of frozen dataclasses. :func:`load_scene` reads a TOML file on top of the
+built-in defaults (``adapter/data/scenes/default.toml``), so a user's file only names what it
+changes. Every key is checked at load: an unknown key or a bad value raises
+:class:`~adapter.errors.SceneError` naming its path in the file, e.g. ``springs.mu``.
+
+Units are SI throughout (m, s, kg); positions along the body are fractions of the body length
+L measured from the rostrum.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import tomllib
+
+from .errors import SceneError
+
+PRESETS = ("default", "smoke", "fine")
+DATA_DIR = Path(__file__).parent / "data"
+
+
+def _positive(v):
+    return v > 0
+
+
+def _non_negative(v):
+    return v >= 0
+
+
+def _fraction(v):
+    return 0.0 <= v <= 1.0
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Whale surface: the built-in procedural right whale, or any closed surface mesh file."""
+
+    source: str = "procedural"  #: "procedural" or a path to a mesh meshio can read
+    length_m: float = field(default=15.0, metadata={"check": _positive})
+    nodes: int = field(default=11272, metadata={"check": lambda v: 400 <= v <= 2_000_000})
+    #: fluke span as a fraction of L (sources give 0.22-0.35 L)
+    fluke_span: float = field(default=0.32, metadata={"check": lambda v: 0.1 <= v <= 0.5})
+    #: landmarks of a mesh file, in its own coordinates (m); empty for the procedural whale.
+    #: Keys: rostrum, flipper_left, flipper_right, tail_base, fluke_tip_left, fluke_tip_right.
+    landmarks: dict = field(default_factory=dict)
+    #: how far a landmark may lie from the surface, as a fraction of L
+    landmark_tolerance: float = field(default=0.01, metadata={"check": _positive})
+
+
+@dataclass(frozen=True)
+class Regions:
+    """Per-node regions along the body (fractions of L from the rostrum)."""
+
+    head_end: float = field(default=0.27, metadata={"check": _fraction})
+    tail_start: float = field(default=0.55, metadata={"check": _fraction})
+
+
+@dataclass(frozen=True)
+class Springs:
+    """Spring constants (per node, N/m for unit mass), damping mu and fluid resistance nu."""
+
+    k_pivot: float = field(default=400.0, metadata={"check": _positive})
+    k_head: float = field(default=40.0, metadata={"check": _positive})
+    k_tail: float = field(default=40.0, metadata={"check": _positive})
+    #: width of the smooth step between region constants, fraction of L
+    transition: float = field(default=0.05, metadata={"check": _positive})
+    #: multiplies every constant; found by calibration
+    stiffness_scale: float = field(default=1.0, metadata={"check": _positive})
+    mu: float = field(default=0.5, metadata={"check": _non_negative})
+    nu: float = field(default=0.05, metadata={"check": _non_negative})
+    #: "paper": k_j of the neighbour node (pair forces unequal); "symmetric": (k_i + k_j) / 2
+    form: str = field(default="paper", metadata={"choices": ("paper", "symmetric")})
+
+
+@dataclass(frozen=True)
+class Stroke:
+    """The prescribed stroke (paper section 3.1) and the fluke gate."""
+
+    frequency_hz: float = field(default=0.13, metadata={"check": _positive})
+    pivot: float = field(default=0.40, metadata={"check": _fraction})
+    #: initial vertical speed at the tail base and at the rostrum (m/s), before velocity_scale
+    tail_speed: float = field(default=1.0, metadata={"check": _non_negative})
+    head_speed: float = field(default=0.3, metadata={"check": _non_negative})
+    tail_exponent: float = field(default=2.0, metadata={"check": _positive})
+    head_exponent: float = field(default=1.0, metadata={"check": _positive})
+    #: where the head profile crosses zero (fraction of L); the flipper region between it and
+    #: the pivot moves against head and tail. 0 drops the dip.
+    head_node: float = field(default=0.2, metadata={"check": _fraction})
+    #: "heave": remove the profile's net vertical momentum (recoil), "none": keep it
+    recoil: str = field(default="none", metadata={"choices": ("heave", "none")})
+    #: multiplies every initial velocity; found by calibration
+    velocity_scale: float = field(default=1.0, metadata={"check": _positive})
+    #: fluke angle table: "default" (shipped data file) or a path to a CSV (phase, angle_deg)
+    fluke_table: str = "default"
+    #: multiplies the table's angles
+    fluke_angle_scale: float = field(default=1.0, metadata={"check": _non_negative})
+    #: the fluke angle ramps in from flat over this fraction of the first cycle
+    fluke_ramp: float = field(default=0.25, metadata={"check": lambda v: 0 <= v <= 4})
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Targets for ``whale-adapter calibrate``."""
+
+    #: peak-to-peak fluke-tip amplitude as a fraction of L
+    fluke_amplitude: float = field(default=0.2, metadata={"check": _positive})
+    tolerance: float = field(default=0.02, metadata={"check": _positive})
+
+
+@dataclass(frozen=True)
+class Integrator:
+    """Time integration of the spring-mass system."""
+
+    method: str = field(
+        default="forward_euler",
+        metadata={"choices": ("forward_euler", "symplectic_euler", "verlet", "rk4",
+                              "backward_euler")},
+    )
+    #: internal step (s); 0 chooses the largest stable step times ``safety``
+    dt_s: float = field(default=0.0, metadata={"check": _non_negative})
+    safety: float = field(default=0.5, metadata={"check": lambda v: 0 < v <= 1})
+
+
+@dataclass(frozen=True)
+class Flow:
+    """The water and the swimming speed."""
+
+    speed_m_s: float = field(default=1.3, metadata={"check": _positive})
+    rho_kg_m3: float = field(default=1025.0, metadata={"check": _positive})
+    nu_m2_s: float = field(default=1.0e-6, metadata={"check": _positive})
+
+
+@dataclass(frozen=True)
+class Output:
+    """Dry-run output."""
+
+    cycles: int = field(default=2, metadata={"check": lambda v: v >= 1})
+    frames_per_cycle: int = field(default=24, metadata={"check": lambda v: v >= 4})
+    #: key-point samples per cycle in keypoints.csv
+    samples_per_cycle: int = field(default=120, metadata={"check": lambda v: v >= 8})
+
+
+@dataclass(frozen=True)
+class Case:
+    """The OpenFOAM whale-in-channel case (foam_case/)."""
+
+    #: domain, in body lengths: upstream of the rostrum, downstream of the flukes, half size in y, z
+    upstream: float = field(default=1.5, metadata={"check": _positive})
+    downstream: float = field(default=3.0, metadata={"check": _positive})
+    half_width: float = field(default=1.5, metadata={"check": _positive})
+    #: background blockMesh cell size (m)
+    background_cell_m: float = field(default=2.0, metadata={"check": _positive})
+    #: snappyHexMesh surface refinement levels (min, max)
+    refinement: tuple = field(default=(2, 3))
+    #: simulated stroke cycles; end time = cycles / frequency unless end_time_s > 0
+    cycles: float = field(default=1.0, metadata={"check": _positive})
+    end_time_s: float = field(default=0.0, metadata={"check": _non_negative})
+    #: flow step (s); 0 chooses 0.5 * smallest cell / speed
+    dt_s: float = field(default=0.0, metadata={"check": _non_negative})
+    #: writes per simulated stroke cycle
+    writes_per_cycle: int = field(default=4, metadata={"check": lambda v: v >= 1})
+    turbulence: str = field(default="kOmegaSST", metadata={"choices": ("kOmegaSST", "laminar")})
+    ranks: int = field(default=1, metadata={"check": lambda v: v >= 1})
+    #: stop before cells invert: largest non-orthogonality (deg) allowed
+    max_non_orthogonality: float = field(default=80.0, metadata={"check": lambda v: 0 < v < 90})
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Every parameter of a run. Build with :func:`load_scene`."""
+
+    name: str = "default"
+    geometry: Geometry = field(default_factory=Geometry)
+    regions: Regions = field(default_factory=Regions)
+    springs: Springs = field(default_factory=Springs)
+    stroke: Stroke = field(default_factory=Stroke)
+    calibration: Calibration = field(default_factory=Calibration)
+    integrator: Integrator = field(default_factory=Integrator)
+    flow: Flow = field(default_factory=Flow)
+    output: Output = field(default_factory=Output)
+    case: Case = field(default_factory=Case)
+    #: folder the scene file came from; relative paths in the scene resolve against it
+    base_dir: str = "."
+
+    @property
+    def period_s(self) -> float:
+        """Duration of one full stroke cycle (s)."""
+        return 1.0 / self.stroke.frequency_hz
+
+    def resolve(self, path: str) -> Path:
+        """A path named in the scene file, relative to that file's folder."""
+        p = Path(path).expanduser()
+        return p if p.is_absolute() else Path(self.base_dir) / p
+
+    def replace(self, **sections) -> Scene:
+        """A copy with some fields of some sections changed: ``replace(springs={"mu": 1})``."""
+        changes = {}
+        for name, values in sections.items():
+            current = getattr(self, name)
+            if dataclasses.is_dataclass(current):
+                changes[name] = _build(type(current), values, name, start=current)
+            else:
+                changes[name] = values
+        return dataclasses.replace(self, **changes)
+
+
+def _describe(value) -> str:
+    return f"{value!r} ({type(value).__name__})"
+
+
+def _convert(value, annotation, path: str, meta: dict):
+    """Check one TOML value against a field's type and metadata, returning the value to store."""
+    kind = annotation if isinstance(annotation, type) else typing.get_origin(annotation)
+    if kind is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise SceneError(f"{path}: expected a number, got {_describe(value)}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise SceneError(f"{path}: expected a finite number, got {value}")
+    elif kind is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise SceneError(f"{path}: expected a whole number, got {_describe(value)}")
+    elif kind is str:
+        if not isinstance(value, str):
+            raise SceneError(f"{path}: expected a string, got {_describe(value)}")
+    elif kind is bool:
+        if not isinstance(value, bool):
+            raise SceneError(f"{path}: expected true or false, got {_describe(value)}")
+    elif kind is tuple:
+        if not isinstance(value, (list, tuple)) or not all(
+            isinstance(v, int) and not isinstance(v, bool) for v in value
+        ):
+            raise SceneError(f"{path}: expected a list of whole numbers, got {_describe(value)}")
+        value = tuple(value)
+    elif kind is dict:
+        if not isinstance(value, dict):
+            raise SceneError(f"{path}: expected a table, got {_describe(value)}")
+        value = {k: _point(v, f"{path}.{k}") for k, v in value.items()}
+    choices = meta.get("choices")
+    if choices is not None and value not in choices:
+        raise SceneError(f"{path}: expected one of {', '.join(choices)}; got {value!r}")
+    check = meta.get("check")
+    if check is not None and not check(value):
+        raise SceneError(f"{path}: value {value!r} is out of range (see docs/scene.md)")
+    return value
+
+
+def _point(value, path: str):
+    if (
+        not isinstance(value, (list, tuple))
+        or len(value) != 3
+        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+        or not all(math.isfinite(v) for v in value)
+    ):
+        raise SceneError(f"{path}: expected a point [x, y, z] of three finite numbers, "
+                         f"got {value!r}")
+    return tuple(float(v) for v in value)
+
+
+def _build(cls, table, path: str, start=None):
+    if not isinstance(table, dict):
+        raise SceneError(f"{path}: expected a table, got {_describe(table)}")
+    hints = typing.get_type_hints(cls)
+    known = {f.name: f for f in dataclasses.fields(cls)}
+    values = {}
+    for key, value in table.items():
+        sub = f"{path}.{key}" if path else key
+        if key not in known or key == "base_dir":
+            allowed = ", ".join(k for k in known if k != "base_dir")
+            raise SceneError(f"{sub}: unknown key; allowed here: {allowed}")
+        f = known[key]
+        hint = hints[key]
+        if dataclasses.is_dataclass(hint):
+            values[key] = _build(hint, value, sub, start=getattr(start, key, None))
+        else:
+            values[key] = _convert(value, hint, sub, dict(f.metadata))
+    obj = dataclasses.replace(start, **values) if start is not None else cls(**values)
+    _check_relations(obj, path)
+    return obj
+
+
+def _check_relations(obj, path: str) -> None:
+    if isinstance(obj, Stroke) and not obj.head_node < obj.pivot:
+        raise SceneError(f"{path}.head_node must lie ahead of (be smaller than) {path}.pivot")
+    if isinstance(obj, Regions) and not obj.head_end < obj.tail_start:
+        raise SceneError(f"{path}.head_end must be smaller than {path}.tail_start")
+    if isinstance(obj, Case) and (
+        len(obj.refinement) != 2 or not 0 <= obj.refinement[0] <= obj.refinement[1] <= 8
+    ):
+        raise SceneError(f"{path}.refinement: expected [min, max] levels with 0 <= min <= max <= 8")
+
+
+def _read_toml(text: str, where: str) -> dict:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{where}: not valid TOML: {exc}") from None
+
+
+def default_scene() -> Scene:
+    """The built-in default scene (the paper's setting)."""
+    return load_scene(preset="default")
+
+
+def load_scene(path: str | Path | None = None, preset: str | None = None) -> Scene:
+    """Load a scene: the defaults, then a preset, then the user's file.
+
+    Parameters
+    ----------
+    path : a TOML file, or None for the preset alone.
+    preset : ``default``, ``smoke`` or ``fine``; a file may also name one as ``preset = "..."``.
+    """
+    scene = Scene()
+    data_dir = DATA_DIR / "scenes"
+    user = {}
+    where = "scene"
+    base_dir = "."
+    if path is not None:
+        path = Path(path)
+        if not path.is_file():
+            raise SceneError(f"scene file {path} does not exist; give an existing TOML file")
+        user = _read_toml(path.read_text(), str(path))
+        where = str(path)
+        base_dir = str(path.resolve().parent)
+        file_preset = user.pop("preset", None)
+        if file_preset is not None:
+            if preset is not None and preset != file_preset:
+                raise SceneError(f"{where}: preset {file_preset!r} conflicts with {preset!r}")
+            preset = file_preset
+    preset = preset or "default"
+    if preset not in PRESETS:
+        raise SceneError(f"{where}: preset: expected one of {', '.join(PRESETS)}; got {preset!r}")
+    layers = [("default", (data_dir / "default.toml").read_text())]
+    if preset != "default":
+        layers.append((preset, (data_dir / f"{preset}.toml").read_text()))
+    for name, text in layers:
+        table = _read_toml(text, f"built-in scene {name}")
+        scene = _with_table(scene, table, f"built-in scene {name}")
+    scene = dataclasses.replace(scene, name=preset)
+    if user:
+        scene = _with_table(scene, user, where)
+    return dataclasses.replace(scene, base_dir=base_dir)
+
+
+def _with_table(scene: Scene, table: dict, where: str) -> Scene:
+    try:
+        return _build(Scene, table, "", start=scene)
+    except SceneError as exc:
+        raise SceneError(f"{where}: {exc}") from None

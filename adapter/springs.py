@@ -1,0 +1,153 @@
+"""The spring-mass network of the paper (Duffy et al., section 3).
+
+Nodes of unit mass; every edge a spring whose rest length is its initial length. The force on
+node i is, exactly as the paper writes it,
+
+    F_i = sum_j { mu (V_j - V_i) + k_j (X_j - X_i) (1 - l_ij / |X_j - X_i|) } - nu V_i
+
+with the spring constant k_j of the *neighbour* node j. The pair forces are then not equal and
+opposite where k_i != k_j, so the paper's form does not conserve momentum (see
+:func:`momentum_rate`); ``form="symmetric"`` uses (k_i + k_j) / 2 for both ends of an edge.
+
+On the hot path, :meth:`SpringNetwork.forces` runs one compiled pass over the edges (numba);
+:meth:`SpringNetwork.forces_numpy` is the same law as sparse matrix products over arrays, kept as
+the readable reference that the tests compare against and the benchmark's baseline.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+import scipy.sparse as sp
+
+
+@numba.njit(cache=True)
+def _edge_forces(X, V, i, j, rest, k_on_i, k_on_j, mu, nu, out):  # pragma: no cover - compiled
+    """One pass over the edges: spring and damping pair forces, then fluid resistance."""
+    n = X.shape[0]
+    for a in range(n):
+        out[a, 0] = -nu * V[a, 0]
+        out[a, 1] = -nu * V[a, 1]
+        out[a, 2] = -nu * V[a, 2]
+    for e in range(i.shape[0]):
+        a = i[e]
+        b = j[e]
+        dx = X[b, 0] - X[a, 0]
+        dy = X[b, 1] - X[a, 1]
+        dz = X[b, 2] - X[a, 2]
+        f = 1.0 - rest[e] / np.sqrt(dx * dx + dy * dy + dz * dz)
+        dvx = mu * (V[b, 0] - V[a, 0])
+        dvy = mu * (V[b, 1] - V[a, 1])
+        dvz = mu * (V[b, 2] - V[a, 2])
+        ka = k_on_i[e] * f
+        kb = k_on_j[e] * f
+        out[a, 0] += ka * dx + dvx
+        out[a, 1] += ka * dy + dvy
+        out[a, 2] += ka * dz + dvz
+        out[b, 0] -= kb * dx + dvx
+        out[b, 1] -= kb * dy + dvy
+        out[b, 2] -= kb * dz + dvz
+    return out
+
+
+@dataclass(frozen=True)
+class SpringNetwork:
+    """Edges, rest lengths and per-node constants, with the sparse operators built once.
+
+    Attributes
+    ----------
+    i, j : (E,) int64, the two ends of every edge (each edge once).
+    rest : (E,) float64, rest lengths l_ij (m).
+    k_node : (N,) float64, per-node spring constants (1/s^2 for unit mass).
+    mu, nu : damping and fluid resistance (1/s).
+    form : "paper" or "symmetric".
+    """
+
+    i: np.ndarray
+    j: np.ndarray
+    rest: np.ndarray
+    k_node: np.ndarray
+    mu: float
+    nu: float
+    form: str = "paper"
+
+    def __post_init__(self):
+        n = len(self.k_node)
+        e = len(self.i)
+        ones = np.ones(e)
+        cols = np.arange(e)
+        # scatter matrices: node i gathers from its edges
+        scatter_i = sp.csr_matrix((ones, (self.i, cols)), shape=(n, e))
+        scatter_j = sp.csr_matrix((ones, (self.j, cols)), shape=(n, e))
+        if self.form == "paper":
+            k_on_i, k_on_j = self.k_node[self.j], self.k_node[self.i]
+        else:
+            k_on_i = k_on_j = 0.5 * (self.k_node[self.i] + self.k_node[self.j])
+        # F_spring = S_i diag(k_on_i) g - S_j diag(k_on_j) g, g_e = (X_j - X_i)(1 - l/|.|)
+        signed = (scatter_i @ sp.diags(k_on_i) - scatter_j @ sp.diags(k_on_j)).tocsr()
+        object.__setattr__(self, "_k_on_i", np.ascontiguousarray(k_on_i, dtype=np.float64))
+        object.__setattr__(self, "_k_on_j", np.ascontiguousarray(k_on_j, dtype=np.float64))
+        adjacency = sp.csr_matrix(
+            (np.ones(2 * e), (np.r_[self.i, self.j], np.r_[self.j, self.i])), shape=(n, n)
+        )
+        laplacian = (sp.diags(np.asarray(adjacency.sum(axis=1)).ravel()) - adjacency).tocsr()
+        object.__setattr__(self, "_signed", signed)
+        object.__setattr__(self, "_damping", (-self.mu * laplacian - self.nu * sp.eye(n)).tocsr())
+        object.__setattr__(self, "laplacian", laplacian)
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.k_node)
+
+    def forces(self, X: np.ndarray, V: np.ndarray) -> np.ndarray:
+        """(N, 3) force on every node (= acceleration, unit masses) at positions X, velocities V."""
+        out = np.empty_like(X)
+        return _edge_forces(X, V, self.i, self.j, self.rest, self._k_on_i, self._k_on_j,
+                            self.mu, self.nu, out)
+
+    def forces_numpy(self, X: np.ndarray, V: np.ndarray) -> np.ndarray:
+        """The same law as :meth:`forces`, as sparse matrix products (the reference)."""
+        d = X[self.j] - X[self.i]
+        length = np.sqrt(np.einsum("ij,ij->i", d, d))
+        g = d * (1.0 - self.rest / length)[:, None]
+        return self._signed @ g + self._damping @ V
+
+
+def network_from_edges(points, edges, k_node, mu, nu, form="paper") -> SpringNetwork:
+    """A :class:`SpringNetwork` whose rest lengths are the edge lengths at ``points``."""
+    edges = np.asarray(edges, dtype=np.int64)
+    rest = np.linalg.norm(points[edges[:, 1]] - points[edges[:, 0]], axis=1)
+    return SpringNetwork(edges[:, 0].copy(), edges[:, 1].copy(), rest,
+                         np.asarray(k_node, dtype=np.float64), float(mu), float(nu), form)
+
+
+def momentum_rate(net: SpringNetwork, X: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """(3,) rate of change of total momentum from the internal forces (spring and damping).
+
+    Zero for the symmetric form; for the paper's form it is
+    sum_e (k_j - k_i) g_e, the imbalance of the unequal pair forces. Fluid resistance (nu),
+    an external force, is left out.
+    """
+    d = X[net.j] - X[net.i]
+    length = np.sqrt(np.einsum("ij,ij->i", d, d))
+    g = d * (1.0 - net.rest / length)[:, None]
+    if net.form == "paper":
+        return ((net.k_node[net.j] - net.k_node[net.i])[:, None] * g).sum(axis=0)
+    return np.zeros(3)
+
+
+def smooth_step(x: np.ndarray, edge: float, width: float) -> np.ndarray:
+    """0 well below ``edge``, 1 well above, a cubic smoothstep over ``width`` around it."""
+    t = np.clip((x - edge) / width + 0.5, 0.0, 1.0)
+    return t * t * (3 - 2 * t)
+
+
+def region_constants(s: np.ndarray, head_end: float, tail_start: float, k_head: float,
+                     k_pivot: float, k_tail: float, transition: float) -> np.ndarray:
+    """(N,) per-node spring constants: k_head, rising to k_pivot in the pivot (thorax)
+    region between ``head_end`` and ``tail_start``, falling to k_tail behind it."""
+    up = smooth_step(s, head_end, transition)
+    down = smooth_step(s, tail_start, transition)
+    return k_head + (k_pivot - k_head) * up + (k_tail - k_pivot) * down

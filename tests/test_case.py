@@ -1,0 +1,307 @@
+"""The OpenFOAM case: numbers, dictionaries, log parsing; meshing and a static run with OpenFOAM.
+
+Tests marked ``openfoam`` run the real blockMesh/snappyHexMesh/checkMesh/pimpleFoam and are
+skipped when pimpleFoam is not on PATH. None of them needs the plugin or the step-server: the
+runs here use ``static_whale=True`` (tests/test_coupled.py covers the coupled run).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+
+import meshio
+import numpy as np
+import pytest
+from PyFoam.RunDictionary.ParsedParameterFile import ParsedParameterFile
+
+from adapter import case as C
+from adapter.errors import AdapterError
+from adapter.geometry import build_surface
+from adapter.scene import load_scene
+
+needs_openfoam = pytest.mark.skipif(shutil.which("pimpleFoam") is None,
+                                    reason="OpenFOAM (pimpleFoam) is not on PATH")
+
+
+@pytest.fixture(scope="module")
+def smoke():
+    return load_scene(preset="smoke")
+
+
+@pytest.fixture(scope="module")
+def smoke_surface(smoke):
+    return build_surface(smoke)
+
+
+def _read(path):
+    return ParsedParameterFile(str(path))
+
+
+# --- the numbers --------------------------------------------------------------------------
+
+
+def test_parameters_domain_and_cells():
+    scene = load_scene(preset="default")
+    lo, hi = np.array([0.0, -2.4, -1.6]), np.array([15.6, 2.4, 1.6])
+    p = C.case_parameters(scene, lo, hi)
+    L, c = scene.geometry.length_m, scene.case
+    assert p.domain_min[0] == pytest.approx(-c.upstream * L)
+    assert p.domain_max[0] == pytest.approx(15.6 + c.downstream * L)
+    assert p.domain_max[1] - p.domain_min[1] == pytest.approx(2 * c.half_width * L)
+    assert p.domain_min[2] + p.domain_max[2] == pytest.approx(0.0)
+    for n, size, a, b in zip(p.cells, p.cell_size, p.domain_min, p.domain_max, strict=True):
+        assert n * size == pytest.approx(b - a)
+        assert abs(size - c.background_cell_m) < 0.1 * c.background_cell_m
+    assert p.smallest_cell_m == pytest.approx(min(p.cell_size) / 2 ** c.refinement[1])
+    # the point snappyHexMesh keeps lies in the water: in the box, upstream of the whale
+    assert p.domain_min[0] < p.location_in_mesh[0] < lo[0]
+    assert p.ranks == c.ranks
+
+
+def test_parameters_time_step_and_writes():
+    scene = load_scene(preset="default")
+    p = C.case_parameters(scene, [0, -2, -2], [15, 2, 2])
+    write_interval = scene.period_s / scene.case.writes_per_cycle
+    # Courant-based step, rounded down to a whole fraction of the write interval, then to a
+    # binary fraction (exact sums and time names)
+    assert p.delta_t <= 0.5 * p.smallest_cell_m / scene.flow.speed_m_s * (1 + 1e-12)
+    assert p.delta_t * p.steps_per_write == pytest.approx(write_interval, rel=0.02)
+    assert p.delta_t * p.steps_per_write <= write_interval
+    k = p.time_precision - 5
+    assert (p.delta_t * 2**k).is_integer()
+    assert p.end_time == pytest.approx(scene.case.cycles * scene.period_s, rel=0.02)
+    assert p.n_steps % p.steps_per_write == 0
+    assert p.end_time == sum([p.delta_t] * p.n_steps)  # OpenFOAM's running sum, exactly
+    assert float(format(p.end_time, f".{p.time_precision}g")) == p.end_time
+    # k = 1.5 (I U)^2, omega = k / (10 nu)
+    assert p.k_inlet == pytest.approx(1.5 * (0.01 * scene.flow.speed_m_s) ** 2)
+    assert p.omega_inlet == pytest.approx(p.k_inlet / (10 * scene.flow.nu_m2_s))
+
+
+def test_parameters_explicit_step_end_time_and_ranks():
+    scene = load_scene(preset="default").replace(case={"dt_s": 0.05, "end_time_s": 1.0})
+    p = C.case_parameters(scene, [0, -2, -2], [15, 2, 2], ranks=3)
+    assert p.delta_t <= 0.05
+    assert p.delta_t > 0.045
+    # the end is rounded to whole write intervals so that the run ends on a written time
+    interval = p.delta_t * p.steps_per_write
+    assert 1.0 - 0.1 * interval <= p.end_time < 1.0 + interval
+    assert p.ranks == 3
+
+
+def test_smoke_preset_is_small(smoke, smoke_surface):
+    pts = smoke_surface.points
+    p = C.case_parameters(smoke, pts.min(0), pts.max(0))
+    assert int(np.prod(p.cells)) < 5000
+    assert p.n_steps <= 10
+    assert p.n_steps // p.steps_per_write >= 2  # at least two written times (restart tests)
+
+
+# --- the dictionaries ---------------------------------------------------------------------
+
+
+def test_prepare_case_writes_readable_dictionaries(tmp_path, smoke, smoke_surface):
+    case = tmp_path / "case"
+    p = C.prepare_case(smoke, case, surface=smoke_surface)
+
+    bm = _read(case / "system" / "blockMeshDict")
+    for axis, lo, hi, n in zip("xyz", p.domain_min, p.domain_max, p.cells, strict=True):
+        assert float(bm[f"{axis}min"]) == pytest.approx(lo)
+        assert float(bm[f"{axis}max"]) == pytest.approx(hi)
+        assert int(bm[f"n{axis}"]) == n
+
+    cd = _read(case / "system" / "controlDict")
+    assert float(cd["endTime"]) == p.end_time
+    assert float(cd["deltaT"]) == p.delta_t
+    assert int(cd["timePrecision"]) == p.time_precision
+    assert int(cd["writeInterval"]) == p.steps_per_write
+    assert cd["writeControl"] == "timeStep"
+    assert str(C.PLUGIN_LIB) in str(cd["libs"])
+    assert cd["functions"]["forces"]["patches"] == ["whale"]
+    assert float(cd["functions"]["forces"]["rhoInf"]) == smoke.flow.rho_kg_m3
+
+    sh = _read(case / "system" / "snappyHexMeshDict")
+    cm = sh["castellatedMeshControls"]
+    assert list(cm["refinementSurfaces"]["whale"]["level"]) == list(smoke.case.refinement)
+    assert [float(v) for v in cm["locationInMesh"]] == pytest.approx(p.location_in_mesh)
+    assert sh["addLayers"] in (False, "false")
+
+    dp = _read(case / "system" / "decomposeParDict")
+    assert int(dp["numberOfSubdomains"]) == 1
+    assert dp["method"] == "hierarchical"
+
+    assert float(_read(case / "constant" / "transportProperties")["nu"]) == smoke.flow.nu_m2_s
+    assert _read(case / "constant" / "turbulenceProperties")["simulationType"] == "laminar"
+    dyn = _read(case / "constant" / "dynamicMeshDict")
+    assert dyn["motionSolver"] == "displacementLaplacian"
+
+    u = _read(case / "0.orig" / "U")
+    assert [float(v) for v in u["Uinlet"]] == [smoke.flow.speed_m_s, 0.0, 0.0]
+    assert float(_read(case / "0.orig" / "k")["kInlet"]) == pytest.approx(p.k_inlet)
+    assert float(_read(case / "0.orig" / "omega")["omegaInlet"]) == pytest.approx(p.omega_inlet)
+    whale = _read(case / "0.orig" / "pointDisplacement")["boundaryField"]["whale"]
+    assert whale["type"] == "stepServerDisplacement"
+    assert C.SOCKET_NAME in whale["socket"]
+
+    stl = meshio.read(case / "constant" / "triSurface" / "whale.stl")
+    assert len(stl.points) > 0
+    assert np.allclose(stl.points.min(0), smoke_surface.points.min(0), atol=1e-5)
+
+    record = json.loads((case / C.CASE_RECORD).read_text())
+    assert record["preset"] == "smoke"
+    assert record["parameters"]["n_steps"] == p.n_steps
+
+
+def test_prepare_case_default_is_turbulent_and_static_option(tmp_path, smoke_surface):
+    scene = load_scene(preset="default")
+    case = tmp_path / "case"
+    C.prepare_case(scene, case, surface=smoke_surface, static_whale=True, ranks=2)
+    tp = _read(case / "constant" / "turbulenceProperties")
+    assert tp["simulationType"] == "RAS"
+    assert tp["RAS"]["RASModel"] == "kOmegaSST"
+    assert _read(case / "0.orig" / "pointDisplacement")["boundaryField"]["whale"]["type"] \
+        == "fixedValue"
+    assert "libs" not in _read(case / "system" / "controlDict")
+    dp = _read(case / "system" / "decomposeParDict")
+    assert int(dp["numberOfSubdomains"]) == 2
+    assert list(dp["coeffs"]["n"]) == [2, 1, 1]
+
+
+def test_prepare_case_refuses_an_existing_case(tmp_path, smoke, smoke_surface):
+    C.prepare_case(smoke, tmp_path / "case", surface=smoke_surface)
+    with pytest.raises(AdapterError, match="already holds a case"):
+        C.prepare_case(smoke, tmp_path / "case", surface=smoke_surface)
+
+
+# --- parsing logs and outputs -------------------------------------------------------------
+
+_SOLVER_LOG = """\
+Time = 0.192
+
+PIMPLE: iteration 1
+GAMG:  Solving for cellDisplacementx, Initial residual = 0, Final residual = 0, No Iterations 0
+bool polyMesh::checkMeshMotion(const pointField&, const bool, const bool) const: checking mesh motion
+    Min volume = 0.00332646760493572. Max volume = 7.76720084011152.  Total volume = 166995.3.  Cell volumes OK.
+    Mesh non-orthogonality Max: 56.8464626881224 average: 7.72095115634614
+stepServer: 4 requests, mean 21306.4 us per exchange
+ExecutionTime = 1.36 s  ClockTime = 2 s
+
+Courant Number mean: 0.0637 max: 1.4357
+Time = 0.288
+
+[0] bool polyMesh::checkMeshMotion(const pointField&, const bool, const bool) const: checking
+    Min volume = 1e-05. Max volume = 7.7.  Total volume = 166995.3.  Cell volumes OK.
+ ***Error in face pyramids: 1 faces are incorrectly oriented.
+    Mesh non-orthogonality Max: 79.5 average: 7.8
+stepServer: 8 requests, mean 13250.6 us per exchange
+ExecutionTime = 2.5 s  ClockTime = 3 s
+"""
+
+
+def test_log_watch_parses_a_solver_log(tmp_path):
+    log = tmp_path / "log.pimpleFoam"
+    half = len(_SOLVER_LOG) // 2
+    log.write_text(_SOLVER_LOG[:half])
+    watch = C.LogWatch(log)
+    watch.poll()
+    log.write_text(_SOLVER_LOG)  # the log grew, a line was cut in the middle
+    watch.poll()
+    assert watch.times == [0.192, 0.288]
+    assert watch.exec_times == [1.36, 2.5]
+    assert watch.max_non_orth == 79.5
+    assert watch.min_volume == 1e-05
+    assert watch.max_courant == pytest.approx(1.4357)
+    assert watch.plugin == (8, 13250.6)
+    assert "face pyramids" in watch.broken
+
+
+def test_read_forces_merges_restarts(tmp_path):
+    base = tmp_path / "postProcessing" / "forces"
+    header = ("# Forces\n# CofR                : (0 0 0)\n#\n# Time          total_x total_y "
+              "total_z   pressure_x ...\n")
+    (base / "0").mkdir(parents=True)
+    (base / "0" / "force.dat").write_text(header + "".join(
+        f"{t}\t({t} 0 1)\t({t - 1} 0 1)\t(1 0 0)\n" for t in (1, 2, 3)))
+    (base / "2").mkdir()
+    (base / "2" / "force.dat").write_text(header + "3\t(30 0 1e+02)\t(29 0 1)\t(1 0 0)\n")
+    f = C.read_forces(tmp_path)
+    assert f.shape == (3, 10)
+    assert f[:, 0].tolist() == [1, 2, 3]
+    assert f[2, 1] == 30 and f[2, 3] == 100
+
+
+def test_parse_check_mesh():
+    text = """
+    cells:            36605
+                   Patch    Faces   Points                  Surface topology
+                   inlet      529      576  ok (non-closed singly connected)
+                   whale     1853     2050      ok (closed singly connected)
+    Mesh non-orthogonality Max: 56.8464626881224 average: 7.72
+    Max skewness = 2.36 OK.
+Mesh OK.
+"""
+    info = C.parse_check_mesh(text)
+    assert info == {"cells": 36605, "whale_faces": 1853, "whale_points": 2050,
+                    "max_non_orthogonality": 56.8464626881224, "max_skewness": 2.36,
+                    "mesh_ok": True}
+
+
+# --- with OpenFOAM ------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def smoke_mesh(tmp_path_factory, smoke, smoke_surface):
+    """A meshed smoke case with a static whale, shared by the tests below (copy before use)."""
+    if shutil.which("pimpleFoam") is None:
+        pytest.skip("OpenFOAM (pimpleFoam) is not on PATH")
+    case = tmp_path_factory.mktemp("smoke") / "case"
+    C.prepare_case(smoke, case, surface=smoke_surface, static_whale=True)
+    info = C.mesh_case(case)
+    return case, info
+
+
+@pytest.mark.openfoam
+@needs_openfoam
+def test_smoke_mesh_has_a_whale_patch(smoke_mesh):
+    case, info = smoke_mesh
+    assert 1000 < info["cells"] < 20000
+    assert info["whale_faces"] > 50
+    assert info["max_non_orthogonality"] < 70
+    boundary = (case / "constant" / "polyMesh" / "boundary").read_text()
+    assert "whale" in boundary
+    for name in ("blockMesh", "snappyHexMesh", "checkMesh"):
+        assert (case / f"log.{name}").is_file()
+    assert (case / "0" / "U").is_file()
+
+
+@pytest.mark.openfoam
+@needs_openfoam
+def test_mesh_failure_names_the_log(tmp_path, smoke, smoke_surface):
+    case = tmp_path / "case"
+    C.prepare_case(smoke, case, surface=smoke_surface, static_whale=True)
+    (case / "system" / "blockMeshDict").write_text("FoamFile { class dictionary; }\nbroken\n")
+    with pytest.raises(C.SolverRunError, match="log.blockMesh"):
+        C.mesh_case(case)
+
+
+@pytest.mark.openfoam
+@pytest.mark.slow
+@needs_openfoam
+def test_static_smoke_run(tmp_path, smoke_mesh):
+    src, _ = smoke_mesh
+    case = tmp_path / "case"
+    shutil.copytree(src, case)
+    summary = C.run_case(case, progress=False)
+    record = C.read_record(case)
+    assert summary["steps"] == record["parameters"]["n_steps"]
+    assert summary["end_time_s"] == pytest.approx(record["parameters"]["end_time"], rel=1e-9)
+    assert math.isfinite(summary["drag_N"]) and summary["drag_N"] > 0
+    assert summary["worst_cell_quality"]["max_non_orthogonality_deg"] < 70
+    assert summary["worst_cell_quality"]["min_cell_volume_m3"] > 0
+    assert json.loads((case / C.SUMMARY).read_text()) == summary
+    assert (case / "case.foam").exists()
+    written = [t for t, _ in C._time_dirs(case)]
+    assert len(written) == 1 + record["parameters"]["n_steps"] // \
+        record["parameters"]["steps_per_write"]

@@ -1,0 +1,64 @@
+"""Forward Euler against the closed form of one damped spring; failure handling."""
+
+import numpy as np
+import pytest
+
+from adapter.errors import UnstableError
+from adapter.integrators import ForwardEuler, make_integrator
+from adapter.springs import network_from_edges
+
+
+def _damped_spring(k=4.0, mu=0.3):
+    """Two unit masses on one spring: the relative coordinate is a damped oscillator with
+    stiffness 2k and damping 2mu (each mass feels the other's spring and damping)."""
+    X0 = np.array([[0.0, 0, 0], [1.0, 0, 0]])
+    net = network_from_edges(X0, [[0, 1]], [k, k], mu=mu, nu=0.0, form="symmetric")
+    return X0, net
+
+
+def _closed_form(t, k, mu, x0):
+    w0 = np.sqrt(2 * k)
+    zeta = 2 * mu / (2 * w0)
+    wd = w0 * np.sqrt(1 - zeta**2)
+    return np.exp(-zeta * w0 * t) * x0 * (np.cos(wd * t) + zeta * w0 / wd * np.sin(wd * t))
+
+
+def _run(dt, t_end=2.0, k=4.0, mu=0.3, stretch=0.1):
+    X0, net = _damped_spring(k, mu)
+    X = X0.copy()
+    X[1, 0] += stretch
+    V = np.zeros_like(X)
+    integ = ForwardEuler(net.forces, dt)
+    for _ in range(int(round(t_end / dt))):
+        X, V = integ.step(X, V)
+    return (X[1, 0] - X[0, 0] - 1.0), _closed_form(t_end, k, mu, stretch)
+
+
+def test_forward_euler_matches_closed_form_first_order():
+    errors = []
+    for dt in (2e-3, 1e-3, 5e-4):
+        num, exact = _run(dt)
+        errors.append(abs(num - exact))
+    # first order: halving the step halves the error (the amplitude is small: linear regime)
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    assert np.all(np.abs(ratios - 2.0) < 0.2), ratios
+    assert errors[-1] < 2e-4
+
+
+def test_blow_up_raises_and_the_integrator_refuses_to_go_on():
+    X0, net = _damped_spring(k=400.0, mu=0.0)
+    X = X0.copy()
+    X[1, 0] += 0.1
+    V = np.zeros_like(X)
+    integ = ForwardEuler(net.forces, 0.2, runaway=10.0, reference=X0, stable_dt=0.001)
+    with pytest.raises(UnstableError, match="0.001"):
+        for _ in range(1000):
+            X, V = integ.step(X, V)
+    assert integ.status == "failed"
+    with pytest.raises(UnstableError):
+        integ.step(X0, np.zeros_like(X0))
+
+
+def test_unknown_method_is_named():
+    with pytest.raises(ValueError, match="unknown integrator 'leapfrogish'"):
+        make_integrator("leapfrogish", lambda X, V: X, 0.1)

@@ -1,0 +1,409 @@
+"""The step-server end to end: a small client speaks the protocol to a real server.
+
+Each test serves the real Animator on the ``smoke`` preset in its own case folder (tmp_path).
+"""
+
+import json
+import os
+import socket
+import stat
+import struct
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from adapter import protocol as wire
+from adapter.animator import Animator
+from adapter.errors import UnstableError
+from adapter.mapping import PatchMap
+from adapter.protocol import ErrorCode, MessageType
+from adapter.scene import load_scene
+from adapter.server import ServerStartError, StepServer, time_name
+
+DT = 0.01
+TIMES = [DT * k for k in range(1, 7)]
+
+
+class ServerSaid(Exception):
+    def __init__(self, code, message):
+        super().__init__(f"ERROR {code}: {message}")
+        self.code, self.message = code, message
+
+
+class Client:
+    """One OpenFOAM rank, as the C++ boundary condition would speak."""
+
+    def __init__(self, case: Path):
+        self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        self.sock.connect(str(case / ".whale-adapter.sock"))
+        self.seq = 0
+
+    def call(self, msg_type, payload=b""):
+        self.seq += 1
+        wire.send_frame(self.sock, msg_type, payload, self.seq)
+        return self.reply()
+
+    def reply(self):
+        frame = wire.read_frame(self.sock, 20)
+        if frame.type == MessageType.ERROR:
+            raise ServerSaid(*wire.unpack_error(frame.payload))
+        assert frame.seq == self.seq
+        return frame
+
+    def hello(self, points, rank=0, n_ranks=1, token=""):
+        f = self.call(MessageType.HELLO, wire.pack_hello(rank, n_ranks, points, token))
+        assert f.type == MessageType.WELCOME
+        return wire.unpack_welcome(f.payload)
+
+    def request(self, t, fp=(np.nan,) * 3, fv=(np.nan,) * 3):
+        f = self.call(MessageType.REQUEST, wire.pack_request(t, fp, fv))
+        assert f.type == MessageType.DISPLACEMENT
+        t_back, disp = wire.unpack_displacement(f.payload)
+        assert t_back == t
+        return f.payload, disp
+
+    def write(self, t):
+        assert self.call(MessageType.WRITE, wire.pack_write(t)).type == MessageType.ACK
+
+    def bye(self):
+        self.seq += 1
+        wire.send_frame(self.sock, MessageType.BYE, b"", self.seq)
+        self.sock.close()
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return load_scene(preset="smoke")
+
+
+@pytest.fixture(scope="module")
+def animator(scene):
+    """The animator the servers use (each server resets it)."""
+    return Animator(scene)
+
+
+@pytest.fixture(scope="module")
+def reference(scene):
+    """An independent animator: the uninterrupted truth."""
+    ref = Animator(scene)
+    ref.reset()
+    cache = {t: np.array(ref.displacement(t)) for t in TIMES}
+    return ref, cache
+
+
+@pytest.fixture(scope="module")
+def points(animator):
+    """Patch points near the whale: on random triangles, lifted 1 mm off the surface."""
+    s = animator.surface
+    rng = np.random.default_rng(0)
+    tri = rng.integers(0, len(s.triangles), 600)
+    w = rng.dirichlet([1.0, 1.0, 1.0], 600)
+    pts = np.einsum("pk,pkd->pd", w, s.points[s.triangles[tri]])
+    return pts + 1e-3 * rng.normal(size=pts.shape)
+
+
+@pytest.fixture
+def case(tmp_path):
+    d = tmp_path / "case"
+    d.mkdir()
+    return d
+
+
+@pytest.fixture
+def serve(scene, animator):
+    started = []
+
+    def start(case_dir, **kw):
+        kw.setdefault("animator", animator)
+        srv = StepServer(case_dir, kw.pop("scene", scene), first_client_timeout=30, **kw)
+        srv.start()
+        srv.thread = threading.Thread(target=srv.run, daemon=True)
+        srv.thread.start()
+        started.append(srv)
+        return srv
+
+    yield start
+    for srv in started:
+        srv.stop()
+        srv.thread.join(10)
+
+
+def finished(srv, timeout=10):
+    srv.thread.join(timeout)
+    assert not srv.thread.is_alive(), "server did not exit"
+    return srv.exit_code
+
+
+def expected(surface, pts, node_disp):
+    return PatchMap.from_surface(pts, surface).apply(node_disp)
+
+
+def test_serves_mapped_animator_displacement(case, serve, animator, points, reference):
+    srv = serve(case)
+    c = Client(case)
+    n, max_dist, dt = c.hello(points)
+    assert n == len(points) and 0 < max_dist < 0.01 and dt == animator.dt
+    _, truth = reference
+    for t in TIMES[:4]:
+        payload, disp = c.request(t, (1.0, 2.0, 3.0), (0.1, 0.2, 0.3))
+        assert np.abs(disp - expected(animator.surface, points, truth[t])).max() <= 1e-12
+        assert c.request(t)[0] == payload                        # a repeat: the same bytes
+    # the flow step shrinks: work-ahead guessed too far and is undone, still exact
+    ref, _ = reference
+    ref.reset()
+    for t in (0.045, 0.047, 0.08):
+        _, disp = c.request(t)
+        assert np.abs(disp - expected(animator.surface, points, ref.displacement(t))).max() <= 1e-12
+    c.bye()
+    assert finished(srv) == 0
+    stats = json.loads((case / "adapter" / "server-stats.json").read_text())
+    assert stats["requests"] == 11 and stats["steps"] == 7 and stats["patch_points"] == 600
+    assert stats["work_ahead_hits"] >= 2 and stats["mean_compute_s"] > 0
+    rows = (case / "adapter" / "keypoints.csv").read_text().splitlines()
+    assert rows[0].startswith("t,rostrum_x,rostrum_y,rostrum_z,") and rows[0].endswith("fz_v")
+    assert len(rows) == 1 + 7 and len(rows[1].split(",")) == 1 + 18 + 6
+    first = np.array(rows[1].split(","), dtype=float)
+    assert first[0] == TIMES[0] and first[-6:].tolist() == [1, 2, 3, 0.1, 0.2, 0.3]
+    assert not (case / ".whale-adapter.sock").exists()
+
+
+def test_two_ranks_share_points_and_steps(case, serve, animator, points):
+    srv = serve(case)
+    a, b = Client(case), Client(case)
+    pa, pb = points[:300], points[200:]                          # 100 points on both ranks
+    a.hello(pa, rank=0, n_ranks=2)
+    b.hello(pb, rank=1, n_ranks=2)
+    for t in TIMES[:3]:
+        _, da = a.request(t, (1, 1, 1), (0, 0, 1))
+        _, db = b.request(t, (2, 2, 2), (0, 0, 1))
+        assert np.array_equal(da[200:], db[:100])
+    for cl in (a, b):
+        cl.write(TIMES[2])                                        # written once
+    a.bye()
+    b.bye()
+    assert finished(srv) == 0
+    rows = (case / "adapter" / "keypoints.csv").read_text().splitlines()[1:]
+    assert len(rows) == 3
+    assert np.array(rows[0].split(","), dtype=float)[-6:].tolist() == [3, 3, 3, 0, 0, 2]
+    assert srv.stats["steps"] == 3 and srv.stats["requests"] == 6
+
+
+def test_write_outputs_read_back(case, serve, animator, points, reference):
+    import pyvista as pv
+
+    srv = serve(case)
+    c = Client(case)
+    c.hello(points)
+    for t in TIMES[:3]:
+        c.request(t)
+    c.write(TIMES[1])                                             # an earlier served time
+    c.write(TIMES[2])
+    c.bye()
+    assert finished(srv) == 0
+    out = case / "adapter"
+    mesh = pv.read(out / f"whale_{time_name(TIMES[2])}.vtp")
+    s = animator.surface
+    truth = reference[1][TIMES[2]]
+    assert mesh.n_points == len(s.points) and mesh.n_cells == len(s.triangles)
+    assert np.array_equal(mesh.point_data["displacement"], truth)
+    assert np.allclose(mesh.points, s.points + truth)
+    assert mesh.point_data["velocity"].shape == (len(s.points), 3)
+    pvd = (out / "whale.pvd").read_text()
+    assert pvd.count("<DataSet") == 2 and f'file="whale_{time_name(TIMES[1])}.vtp"' in pvd
+    with np.load(out / f"state_{time_name(TIMES[2])}.npz") as z:
+        assert float(z["time"]) == TIMES[2] and any(k.startswith("ckpt:") for k in z.files)
+
+
+@pytest.mark.parametrize("source", ["state", "replay"])
+def test_restart_is_bit_identical(case, serve, points, source):
+    srv = serve(case)
+    c = Client(case)
+    c.hello(points)
+    original = {}
+    for t in TIMES:
+        original[t] = c.request(t, (1, 0, 0), (0, 0, 0))[0]
+        if t == TIMES[2]:
+            c.write(t)
+    c.bye()
+    assert finished(srv) == 0
+    if source == "replay":
+        for f in (case / "adapter").glob("state_*.npz"):
+            f.unlink()
+    # OpenFOAM restarts from the written time TIMES[2]: a fresh server, a fresh connection
+    srv = serve(case)
+    c = Client(case)
+    c.hello(points)
+    for t in TIMES[3:]:
+        assert c.request(t)[0] == original[t]
+    c.bye()
+    assert finished(srv) == 0
+    ts = [float(r.split(",")[0]) for r in
+          (case / "adapter" / "keypoints.csv").read_text().splitlines()[1:]]
+    assert ts == TIMES
+
+
+def test_rewind_within_one_server_on_a_fresh_connection(case, serve, points):
+    srv = serve(case)
+    a, keeper = Client(case), Client(case)
+    a.hello(points[:300], rank=0, n_ranks=2)
+    keeper.hello(points[300:], rank=1, n_ranks=2)
+    original = {}
+    for t in TIMES:
+        original[t] = a.request(t)[0]
+        keeper.request(t)
+    with pytest.raises(ServerSaid) as info:
+        a.request(TIMES[1])                                    # not a repeat: backwards
+    assert info.value.code == ErrorCode.TIME_BACKWARDS
+    b = Client(case)                                           # rank 0, restarted
+    b.hello(points[:300], rank=0, n_ranks=2)
+    assert [b.request(t)[0] for t in TIMES[1:]] == [original[t] for t in TIMES[1:]]
+    b.bye()
+    keeper.bye()
+    assert finished(srv) == 0
+
+
+def test_bad_clients_do_not_kill_the_server(case, serve, points):
+    srv = serve(case)
+    far = Client(case)
+    with pytest.raises(ServerSaid) as info:
+        far.hello(points + [0.0, 0.0, 100.0], rank=0)
+    assert info.value.code == ErrorCode.BAD_HELLO and " m from the whale" in info.value.message
+    good = Client(case)
+    good.hello(points[:50])
+    good.request(TIMES[0])
+    sent = [
+        b"GARBAGE GARBAGE GARBAGE",
+        struct.pack("<4sHHII", b"WHAL", 1, 3, 2**31, 1),        # oversized
+        wire.encode_frame(MessageType.REQUEST, wire.pack_request(0.1), 1)[:30],   # truncated
+        wire.encode_frame(MessageType.REQUEST, wire.pack_request(0.1), 1),        # no HELLO
+    ]
+    for data in sent:
+        bad = Client(case)
+        bad.sock.sendall(data)
+        bad.sock.shutdown(socket.SHUT_WR)
+        with pytest.raises(ServerSaid) as info:
+            bad.reply()
+        assert info.value.code == ErrorCode.BAD_FRAME
+        bad.sock.close()
+    v2 = Client(case)
+    v2.sock.sendall(wire.encode_frame(MessageType.HELLO, wire.pack_hello(0, 1, points), 1,
+                                      version=2))
+    with pytest.raises(ServerSaid) as info:
+        v2.reply()
+    assert info.value.code == ErrorCode.VERSION_MISMATCH
+    assert "version 2" in info.value.message and "version 1" in info.value.message
+    busy = Client(case)
+    with pytest.raises(ServerSaid) as info:
+        busy.hello(points[:5], rank=0)                          # rank 0 is connected
+    assert info.value.code == ErrorCode.BUSY
+    good.request(TIMES[1])                                      # still serving
+    good.bye()
+    assert finished(srv) == 0
+
+
+def test_token(case, serve, points):
+    srv = serve(case, token="s3cret")
+    for token in ("", "wrong"):
+        with pytest.raises(ServerSaid) as info:
+            Client(case).hello(points[:5], token=token)
+        assert info.value.code == ErrorCode.BAD_TOKEN
+    c = Client(case)
+    c.hello(points[:5], token="s3cret")
+    c.bye()
+    assert finished(srv) == 0
+
+
+def test_non_loopback_tcp_needs_a_token(case, scene, animator):
+    srv = StepServer(case, scene, tcp_port=0, host="0.0.0.0", animator=animator)
+    with pytest.raises(ServerStartError, match="--token"):
+        srv.start()
+
+
+def test_tcp_loopback(case, serve, points):
+    srv = serve(case, tcp_port=0)
+    sock = socket.create_connection(srv.tcp_address)
+    wire.send_frame(sock, MessageType.HELLO, wire.pack_hello(0, 1, points[:10]), 1)
+    assert wire.read_frame(sock, 10).type == MessageType.WELCOME
+    wire.send_frame(sock, MessageType.BYE, b"", 2)
+    sock.close()
+    assert finished(srv) == 0
+
+
+def test_socket_is_private_and_a_second_server_is_refused(case, serve, scene, animator):
+    srv = serve(case)
+    sock = case / ".whale-adapter.sock"
+    assert stat.S_IMODE(sock.stat().st_mode) == 0o600
+    with pytest.raises(ServerStartError, match=f"pid {os.getpid()}"):
+        StepServer(case, scene, animator=animator).start()
+    srv.stop()
+    finished(srv)
+    # a stale socket (server killed) is removed
+    stale = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    stale.bind(str(sock))
+    stale.close()
+    srv = serve(case)
+    srv.stop()
+    finished(srv)
+
+
+def test_vanished_client_saves_state(case, serve, points):
+    srv = serve(case)
+    c = Client(case)
+    c.hello(points[:20])
+    c.request(TIMES[0])
+    c.request(TIMES[1])
+    c.sock.close()                                             # pimpleFoam killed
+    assert finished(srv) == 0
+    assert (case / "adapter" / f"state_{time_name(TIMES[1])}.npz").exists()
+
+
+def test_model_failure_reaches_every_client(case, serve, scene, points):
+    class Failing(Animator):
+        def displacement(self, t):
+            if t > 0.015:
+                raise UnstableError("the whale blew up; use [integrator] dt_s <= 1e-4")
+            return super().displacement(t)
+
+    srv = serve(case, animator=Failing(scene))
+    a, b = Client(case), Client(case)
+    a.hello(points[:10], rank=0, n_ranks=2)
+    b.hello(points[10:20], rank=1, n_ranks=2)
+    a.request(0.01)
+    b.request(0.01)
+    for cl in (a, b):
+        with pytest.raises(ServerSaid) as info:
+            cl.request(0.02)
+        assert info.value.code == ErrorCode.MODEL_FAILURE and "dt_s" in info.value.message
+    assert finished(srv) == 1
+
+
+def test_command_line(case, points):
+    env = dict(os.environ)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "adapter.cli", "serve", "--case", str(case), "--preset", "smoke",
+         "--wait", "60"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+        cwd=Path(__file__).parents[1])
+    try:
+        deadline = time.monotonic() + 60
+        while True:
+            try:
+                c = Client(case)
+                break
+            except (FileNotFoundError, ConnectionRefusedError):
+                assert proc.poll() is None, proc.stderr.read()
+                assert time.monotonic() < deadline
+                time.sleep(0.1)
+        c.hello(points[:30])
+        c.request(TIMES[0])
+        c.bye()
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0, err
+    assert "1 requests served" in out
