@@ -157,7 +157,7 @@ class Case:
     #: background blockMesh cell size (m)
     background_cell_m: float = field(default=2.0, metadata={"check": _positive})
     #: snappyHexMesh surface refinement levels (min, max)
-    refinement: tuple = field(default=(2, 3))
+    refinement: tuple = field(default=(2, 4))
     #: simulated stroke cycles; end time = cycles / frequency unless end_time_s > 0
     cycles: float = field(default=1.0, metadata={"check": _positive})
     end_time_s: float = field(default=0.0, metadata={"check": _non_negative})
