@@ -586,8 +586,10 @@ def _start_server(case: Path, record: dict, timeout: float = 60.0) -> subprocess
     if sock.exists():
         sock.unlink()
     log = open(case / "log.server", "w")  # noqa: SIM115 - closed by _stop_server
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(_REPO), env.get("PYTHONPATH")]))
     proc = subprocess.Popen(_server_command(case, record), cwd=case, stdout=log,
-                            stderr=subprocess.STDOUT, start_new_session=True)
+                            stderr=subprocess.STDOUT, start_new_session=True, env=env)
     proc._whale_log = log  # type: ignore[attr-defined]
     t0 = time.perf_counter()
     while not sock.exists():
@@ -674,10 +676,10 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True) -> di
         flow_wall = time.perf_counter() - t_flow
     finally:
         _stop_server(server)
-    if rc != 0 and stopped is None:
-        hint = f" ({watch.broken})" if watch.broken else ""
-        raise SolverRunError(
-            f"pimpleFoam failed (exit code {rc}){hint}; see {case / 'log.pimpleFoam'}")
+    if rc != 0:
+        what = stopped or f"pimpleFoam failed (exit code {rc})"
+        hint = f" ({watch.broken})" if watch.broken and not stopped else ""
+        raise SolverRunError(f"{what}{hint}; see {case / 'log.pimpleFoam'}")
     if ranks > 1:
         run_utility(case, ["reconstructPar", "-newTimes"])
     (case / "case.foam").touch()

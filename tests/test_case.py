@@ -182,8 +182,8 @@ Time = 0.192
 
 PIMPLE: iteration 1
 GAMG:  Solving for cellDisplacementx, Initial residual = 0, Final residual = 0, No Iterations 0
-bool polyMesh::checkMeshMotion(const pointField&, const bool, const bool) const: checking mesh motion
-    Min volume = 0.00332646760493572. Max volume = 7.76720084011152.  Total volume = 166995.3.  Cell volumes OK.
+bool polyMesh::checkMeshMotion(const pointField&, const bool, const bool) const: checking
+    Min volume = 0.00332646760493572. Max volume = 7.767.  Total volume = 166995.  Cell volumes OK.
     Mesh non-orthogonality Max: 56.8464626881224 average: 7.72095115634614
 stepServer: 4 requests, mean 21306.4 us per exchange
 ExecutionTime = 1.36 s  ClockTime = 2 s
