@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 
-from .errors import GeometryError, SceneError
-from .gait import QUARTER_EVENTS, load_fluke_table, ramp, rotation_y, velocity_profile
+from .errors import GeometryError, SceneError, UnstableError
+from .gait import QUARTER_EVENTS, load_fluke_table, place_gate, ramp, velocity_profile
 from .geometry import build_surface
 from .integrators import make_integrator
 from .springs import network_from_edges, region_constants
@@ -70,12 +70,20 @@ class Animator:
         self.fluke_ramp_s = scene.stroke.fluke_ramp * self.period
 
         method = scene.integrator.method
-        self.stable_dt = stable_dt(self.network, self.rest, method)
+        # predicted on the free (spring-moved) nodes; the fluke gate is kinematic
+        self.stable_dt = stable_dt(self.network, self.rest, method, free=self.dynamic)
         quarter = self.period / 4
         if scene.integrator.dt_s > 0:
             target = scene.integrator.dt_s
+            if target > self.stable_dt:
+                raise UnstableError(
+                    f"integrator.dt_s = {target:.3g} s is beyond the largest stable step "
+                    f"predicted for {method}, {self.stable_dt:.3g} s: the run would blow up; "
+                    "lower integrator.dt_s, set it to 0 to use the predicted step times "
+                    "integrator.safety, or choose another integrator.method"
+                )
         elif self.stable_dt > 0:
-            target = scene.integrator.safety * self.stable_dt
+            target = scene.integrator.safety * min(self.stable_dt, quarter)
         else:
             raise SceneError(
                 f"integrator.method = {method} has no stable step with springs.mu = "
@@ -86,7 +94,7 @@ class Animator:
         self.dt = quarter / self.steps_per_quarter
         self.integrator = make_integrator(
             method, self.network.forces, self.dt, runaway=2.0 * surf.length,
-            reference=self.rest, stable_dt=self.stable_dt,
+            reference=self.rest, stable_dt=self.stable_dt, network=self.network,
         )
         self.reset()
 
@@ -140,22 +148,13 @@ class Animator:
 
     def _constrain(self, X: np.ndarray, V: np.ndarray, t: float) -> None:
         """Place the fluke gate: shifted with the hinge, rotated by the table's angle at t."""
-        h = self._hinge_nodes
-        hinge = X[h].mean(axis=0)
-        hinge_v = V[h].mean(axis=0)
         phase = t / self.period
         r, r_dot = ramp(t, self.fluke_ramp_s)
-        theta = r * self.fluke_table(phase)
-        theta_dot = (r * self.fluke_table.rate(phase) / self.period
-                     + r_dot * self.fluke_table(phase))
-        arm = self._fluke_arm @ rotation_y(theta).T
-        # written as rest + shift + (R - I) arm0 so that the flat pose is exactly the rest
-        X[self._fluke_nodes] = (self.rest[self._fluke_nodes] + (hinge - self.hinge0)
-                                + (arm - self._fluke_arm))
-        # d/dt of R(theta) a: theta_dot * (-z', 0, x') in the x-z plane
-        V[self._fluke_nodes] = hinge_v + theta_dot * np.column_stack(
-            [-arm[:, 2], np.zeros(len(arm)), arm[:, 0]]
-        )
+        angle = self.fluke_table(phase)
+        theta = r * angle
+        theta_dot = r * self.fluke_table.rate(phase) / self.period + r_dot * angle
+        place_gate(X, V, self.rest, self._hinge_nodes, self._fluke_nodes, self._fluke_arm,
+                   self.hinge0, theta, theta_dot)
 
     def _advance(self, n_target: int) -> None:
         """March the state forward to internal step ``n_target``."""

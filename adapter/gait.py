@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from .errors import SceneError
@@ -125,3 +126,37 @@ def rotation_y(theta: float) -> np.ndarray:
     """Rotation in the x-z plane that raises +x toward +z by ``theta`` (rad)."""
     c, s = np.cos(theta), np.sin(theta)
     return np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
+
+
+@numba.njit(cache=True)
+def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_dot):
+    """Shift the fluke nodes with the hinge and rotate them by ``theta`` (in place).
+
+    The hinge is the mean of ``hinge_nodes``; each fluke node is
+    rest + (hinge - hinge0) + (R(theta) - I) arm0, written so that the flat pose is exactly
+    the rest, and its velocity is the hinge's plus theta_dot times (-z', 0, x') of the
+    rotated arm (R as in :func:`rotation_y`).
+    """
+    hx = hy = hz = vx = vy = vz = 0.0
+    for k in hinge_nodes:
+        hx += X[k, 0]
+        hy += X[k, 1]
+        hz += X[k, 2]
+        vx += V[k, 0]
+        vy += V[k, 1]
+        vz += V[k, 2]
+    n = hinge_nodes.shape[0]
+    sx, sy, sz = hx / n - hinge0[0], hy / n - hinge0[1], hz / n - hinge0[2]
+    vx, vy, vz = vx / n, vy / n, vz / n
+    c, s = np.cos(theta), np.sin(theta)
+    for m in range(fluke_nodes.shape[0]):
+        i = fluke_nodes[m]
+        ax, az = arm0[m, 0], arm0[m, 2]
+        rx = c * ax - s * az
+        rz = s * ax + c * az
+        X[i, 0] = rest[i, 0] + sx + (rx - ax)
+        X[i, 1] = rest[i, 1] + sy
+        X[i, 2] = rest[i, 2] + sz + (rz - az)
+        V[i, 0] = vx - theta_dot * rz
+        V[i, 1] = vy
+        V[i, 2] = vz + theta_dot * rx

@@ -227,6 +227,10 @@ class StepServer:
                 self.animator = Animator(self.scene)
             else:
                 self.animator.reset()
+            # warm up: load the compiled kernels and take one step now, not in the first
+            # exchange that OpenFOAM times (then back to t = 0, bit for bit)
+            self.animator.displacement(self.animator.dt)
+            self.animator.reset()
             self._surface = self.animator.surface
             self._landmarks = [n for n in LANDMARKS if n in self._surface.landmarks]
             self._landmark_nodes = np.array([self._surface.landmarks[n] for n in self._landmarks],
