@@ -70,7 +70,7 @@ chart: venv
 	$(BIN)/whale-adapter numerics --out out/numerics
 
 paraview: venv paraview-deps
-	$(BIN)/python scripts/paraview_report.py $(if $(CASE),$(CASE),$(OUT))
+	$(BIN)/whale-adapter paraview $(if $(filter file,$(origin CASE)),$(OUT),$(CASE))
 
 clean:
 	rm -rf out build/lib .pytest_cache

@@ -22,6 +22,7 @@ _COMMAND_MODULES = (
     "adapter.server",
     "adapter.case",
     "adapter.numerics",
+    "adapter.paraview_report",
 )
 
 
