@@ -27,6 +27,7 @@ import stat
 import threading
 import time
 import xml.etree.ElementTree as ET
+import zipfile
 from collections import OrderedDict
 from pathlib import Path
 
@@ -49,6 +50,10 @@ FORCE_COLUMNS = ("fx_p", "fy_p", "fz_p", "fx_v", "fy_v", "fz_v")
 #: served times whose node displacement is kept, so a lagging rank gets the same bytes
 _CACHE_SIZE = 4
 _STATE_FORMAT = 1
+#: the largest jump ahead, in stroke cycles, that a REQUEST or WRITE may ask for
+MAX_JUMP_CYCLES = 1000
+#: what reading a cut-short, empty or foreign state file raises
+_UNREADABLE = (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile)
 #: seconds the clients get to read an ERROR 6 before the server exits anyway
 _FATAL_GRACE_S = 10.0
 
@@ -533,12 +538,35 @@ class StepServer:
         conn.send(MessageType.WELCOME, welcome, frame.seq)
         return True
 
+    def _check_time(self, t: float, what: str) -> None:
+        """A time the animator can reach: finite, not negative, and not absurdly far ahead
+        (a jump of more than MAX_JUMP_CYCLES stroke cycles would keep the animator busy for
+        hours with the lock held: refused instead of hanging)."""
+        if not math.isfinite(t) or t < 0:
+            raise WireError(ErrorCode.BAD_FRAME,
+                            f"bad {what}: time {t} s is not a finite time >= 0")
+        jump = MAX_JUMP_CYCLES * self.animator.period
+        if t > self.animator.time + jump and t > self._newest_state_time() + jump:
+            raise WireError(
+                ErrorCode.BAD_FRAME,
+                f"bad {what}: time {t:g} s is more than {MAX_JUMP_CYCLES} stroke cycles ahead of "
+                f"the whale (at {self.animator.time:g} s); check the case's time settings")
+
+    def _newest_state_time(self) -> float:
+        """The latest time with a saved state file (a restart may start there); 0 if none."""
+        times = []
+        for path in self.out_dir.glob("state_*.npz"):
+            try:
+                times.append(float(path.stem[len("state_"):]))
+            except ValueError:
+                continue
+        return max(times, default=0.0)
+
     def _request(self, conn: _Connection, frame: wire.Frame, t_recv: float) -> bool:
         t_start = time.perf_counter()
         req = wire.unpack_request(frame.payload)
         t = req.time
-        if not math.isfinite(t):
-            raise WireError(ErrorCode.BAD_FRAME, f"bad REQUEST: time {t} is not finite")
+        self._check_time(t, "REQUEST")
         if conn.last_reply is not None and conn.last_reply[0] == t:
             payload = conn.last_reply[1]
         else:
@@ -694,8 +722,12 @@ class StepServer:
         self._restore_from_state(t, newer_than=float(self.animator.time))
 
     def _restore_from_state(self, t: float, newer_than: float) -> bool:
-        a = self.animator
-        best = None
+        """Restore the newest usable saved state at or before ``t``; False if there is none.
+
+        A state file that cannot be read (cut short, empty, another scene's) is passed over
+        with a warning: the caller then falls back on the next one, or on replay from t = 0.
+        """
+        candidates = []
         for path in self.out_dir.glob("state_*.npz"):
             try:
                 with np.load(path, allow_pickle=False) as z:
@@ -703,20 +735,24 @@ class StepServer:
                             or str(z["fingerprint"]) != self._fingerprint):
                         continue
                     at, dt = float(z["animator_time"]), float(z["dt"])
-            except (OSError, KeyError, ValueError) as exc:
+            except _UNREADABLE as exc:
                 log.warning("ignoring unreadable state file %s: %s", path, exc)
                 continue
-            if at - dt <= t and at > newer_than and (best is None or at > best[0]):
-                best = (at, path)
-        if best is None:
-            return False
-        with np.load(best[1], allow_pickle=False) as z:
-            ckpt = {k[5:]: (z[k].item() if z[k].ndim == 0 else np.array(z[k]))
-                    for k in z.files if k.startswith("ckpt:")}
-        a.restore(ckpt)
-        log.info("restored the animator from %s (t = %s s) to reach t = %s s", best[1].name,
-                 time_name(best[0]), time_name(t))
-        return True
+            if at - dt <= t and at > newer_than:
+                candidates.append((at, path))
+        for at, path in sorted(candidates, reverse=True):
+            try:
+                with np.load(path, allow_pickle=False) as z:
+                    ckpt = {k[5:]: (z[k].item() if z[k].ndim == 0 else np.array(z[k]))
+                            for k in z.files if k.startswith("ckpt:")}
+                self.animator.restore(ckpt)
+            except _UNREADABLE as exc:
+                log.warning("ignoring unreadable state file %s: %s", path, exc)
+                continue
+            log.info("restored the animator from %s (t = %s s) to reach t = %s s", path.name,
+                     time_name(at), time_name(t))
+            return True
+        return False
 
     def _make_fingerprint(self) -> str:
         scene = dataclasses.asdict(self.scene)
@@ -794,8 +830,7 @@ class StepServer:
 
     def _write(self, t: float) -> None:
         """WRITE(t): surface, ParaView collection and restart state, once per time."""
-        if not math.isfinite(t):
-            raise WireError(ErrorCode.BAD_FRAME, f"bad WRITE: time {t} is not finite")
+        self._check_time(t, "WRITE")
         with self._write_lock:
             if t in self._written:
                 return

@@ -352,6 +352,15 @@ void stepServerDisplacementPointPatchVectorField::updateCoeffs()
 
     const Time& t = this->db().time();
 
+    if (!state_->writeError.empty())
+    {
+        FatalErrorInFunction
+            << "stepServer: " << state_->writeError.c_str() << nl
+            << "    The last time folder was written completely: start the"
+            << " server again (whale-adapter serve --case <case>) and restart"
+            << " OpenFOAM from the latest time." << exit(FatalError);
+    }
+
     const bool first = !state_->client;
     if (first)
     {
@@ -421,10 +430,16 @@ void stepServerDisplacementPointPatchVectorField::write(Ostream& os) const
         }
         catch (const stepServer::stepServerError& e)
         {
+            // Not fatal here: OpenFOAM is writing this time folder, and a
+            // FatalError now would leave it cut short (not restartable).
+            // Finish the folder; the next update stops the run.
             state_->failed = true;
-            FatalErrorInFunction
-                << "stepServer: WRITE at time " << t.timeName()
-                << " failed: " << e.what() << exit(FatalError);
+            state_->writeError =
+                "WRITE at time " + t.timeName() + " failed: " + e.what();
+            WarningInFunction
+                << "stepServer: " << state_->writeError.c_str()
+                << "; finishing this time folder, stopping at the next step"
+                << endl;
         }
         logStats();
     }
