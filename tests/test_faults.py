@@ -18,7 +18,6 @@ import socket
 import stat
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -38,56 +37,11 @@ from adapter.protocol import HEADER, MAGIC, ErrorCode, MessageType
 from adapter.scene import load_scene
 from adapter.server import StepServer
 
+from .wire_client import Client, ServerSaid, finished, server_starter
+
 REPO = Path(__file__).resolve().parents[1]
 #: fuzz cases in total (the issue asks for at least 10,000)
 FUZZ_CASES = int(os.environ.get("FUZZ_CASES", 10_000))
-
-
-# --- a client that speaks the protocol --------------------------------------------------------
-
-
-class ServerSaid(Exception):
-    def __init__(self, code, message):
-        super().__init__(f"ERROR {code}: {message}")
-        self.code, self.message = code, message
-
-
-class Client:
-    """One OpenFOAM rank, on the UNIX socket or (``address``) on TCP."""
-
-    def __init__(self, case: Path | None = None, address=None):
-        if address is None:
-            self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-            self.sock.connect(str(case / ".whale-adapter.sock"))
-        else:
-            self.sock = socket.create_connection(address, timeout=20)
-        self.seq = 0
-
-    def call(self, msg_type, payload=b"", version=wire.VERSION):
-        self.seq += 1
-        self.sock.sendall(wire.encode_frame(msg_type, payload, self.seq, version=version))
-        frame = wire.read_frame(self.sock, 20)
-        if frame.type == MessageType.ERROR:
-            raise ServerSaid(*wire.unpack_error(frame.payload))
-        assert frame.seq == self.seq
-        return frame
-
-    def hello(self, points, rank=0, n_ranks=1, token=""):
-        f = self.call(MessageType.HELLO, wire.pack_hello(rank, n_ranks, points, token))
-        assert f.type == MessageType.WELCOME
-        return wire.unpack_welcome(f.payload)
-
-    def request(self, t):
-        f = self.call(MessageType.REQUEST, wire.pack_request(t))
-        assert f.type == MessageType.DISPLACEMENT
-        t_back, disp = wire.unpack_displacement(f.payload)
-        assert t_back == t
-        return disp
-
-    def bye(self):
-        self.seq += 1
-        wire.send_frame(self.sock, MessageType.BYE, b"", self.seq)
-        self.sock.close()
 
 
 @pytest.fixture(scope="module")
@@ -136,27 +90,9 @@ def case(tmp_path):
 
 @pytest.fixture
 def serve(scene, animator):
-    started = []
-
-    def start(case_dir, **kw):
-        kw.setdefault("animator", animator)
-        srv = StepServer(case_dir, kw.pop("scene", scene), first_client_timeout=60, **kw)
-        srv.start()
-        srv.thread = threading.Thread(target=srv.run, daemon=True)
-        srv.thread.start()
-        started.append(srv)
-        return srv
-
+    start, stop_all = server_starter(scene, animator, first_client_timeout=60)
     yield start
-    for srv in started:
-        srv.stop()
-        srv.thread.join(10)
-
-
-def finished(srv, timeout=15):
-    srv.thread.join(timeout)
-    assert not srv.thread.is_alive(), "server did not exit"
-    return srv.exit_code
+    stop_all()
 
 
 # --- fuzzing ----------------------------------------------------------------------------------
@@ -282,7 +218,7 @@ def test_fuzzed_frames_never_crash_or_lie(case, serve, animator, points, truth):
     keeper = Client(case)
     keeper.hello(points[:20], rank=0, n_ranks=2)
     keeper_t = [0.01]
-    assert np.array_equal(keeper.request(keeper_t[-1]), truth(keeper_t[-1])[:20])
+    assert np.array_equal(keeper.displacement(keeper_t[-1]), truth(keeper_t[-1])[:20])
     count = [0]
     checked = [0]                    # DISPLACEMENT replies compared with the truth
 
@@ -311,7 +247,7 @@ def test_fuzzed_frames_never_crash_or_lie(case, serve, animator, points, truth):
         assert srv.thread.is_alive()
         if count[0] % 1000 == 0:         # the well-behaved rank, during the fuzzing
             keeper_t.append(round(keeper_t[-1] + 0.01, 6))
-            assert np.array_equal(keeper.request(keeper_t[-1]), truth(keeper_t[-1])[:20])
+            assert np.array_equal(keeper.displacement(keeper_t[-1]), truth(keeper_t[-1])[:20])
 
     def check(replies, asked):
         for i, f in enumerate(replies):
@@ -341,8 +277,8 @@ def test_fuzzed_frames_never_crash_or_lie(case, serve, animator, points, truth):
     late = Client(case)
     late.hello(points[20:], rank=1, n_ranks=2)
     for t in (keeper_t[-1] + 0.01, keeper_t[-1] + 0.02):
-        assert np.array_equal(keeper.request(t), truth(t)[:20])
-        assert np.array_equal(late.request(t), truth(t)[20:])
+        assert np.array_equal(keeper.displacement(t), truth(t)[:20])
+        assert np.array_equal(late.displacement(t), truth(t)[20:])
     keeper.bye()
     late.bye()
     assert finished(srv) == 0
@@ -370,7 +306,7 @@ def test_other_protocol_versions_are_refused_naming_both(case, serve, points, tr
     mid = Client(case)
     with pytest.raises(ServerSaid, match="version 3"):
         mid.call(MessageType.HELLO, wire.pack_hello(0, 1, points[:10]), version=3)
-    assert np.array_equal(good.request(0.01), truth(0.01)[:10])
+    assert np.array_equal(good.displacement(0.01), truth(0.01)[:10])
     good.bye()
     assert finished(srv) == 0
 
@@ -403,7 +339,7 @@ def test_second_server_on_a_case_is_refused_naming_the_first(case, points):
         # the first one is untouched: it still serves
         c = Client(case)
         c.hello(points[:5])
-        c.request(0.01)
+        c.displacement(0.01)
         c.bye()
         out, err = first.communicate(timeout=60)
         assert first.returncode == 0, err
@@ -446,7 +382,7 @@ def test_tcp_is_loopback_by_default_and_needs_the_token_otherwise(case, serve, p
         s.close()
     c = Client(address=address)
     c.hello(points[:5], token="s3cret")
-    c.request(0.01)
+    c.displacement(0.01)
     c.bye()
     assert finished(srv) == 0
 
@@ -580,7 +516,7 @@ def test_a_large_flow_step_is_sub_stepped(case, serve, animator, points, truth):
     _, _, dt = c.hello(points)
     assert dt == animator.dt and dt < 0.5 * animator.stable_dt * 1.000001
     for t in (0.35, 0.7):
-        d = c.request(t)
+        d = c.displacement(t)
         assert np.isfinite(d).all() and np.array_equal(d, truth(t))
     c.bye()
     assert finished(srv) == 0
@@ -614,7 +550,7 @@ def test_a_blow_up_reaches_the_client_as_error_6_never_as_nan(case, serve, scene
     served = 0
     with pytest.raises(ServerSaid) as info:
         for k in range(1, 200):
-            assert np.isfinite(c.request(0.01 * k)).all()
+            assert np.isfinite(c.displacement(0.01 * k)).all()
             served += 1
     assert info.value.code == ErrorCode.MODEL_FAILURE
     assert "blew up" in info.value.message
@@ -642,9 +578,9 @@ def test_a_non_finite_motion_is_never_sent(case, serve, scene, points, when):
     c.hello(points)
     times = (0.01, 0.02, 0.03) if when == "worked ahead" else (0.01, 0.03)
     for t in times[:-1]:
-        assert np.isfinite(c.request(t)).all()
+        assert np.isfinite(c.displacement(t)).all()
     with pytest.raises(ServerSaid) as info:
-        c.request(times[-1])
+        c.displacement(times[-1])
     assert info.value.code == ErrorCode.MODEL_FAILURE and "not finite" in info.value.message
     assert "dt_s" in info.value.message
     assert finished(srv) == 1
@@ -662,7 +598,7 @@ def test_an_unreadable_state_file_is_ignored_on_restart(case, serve, points, tru
     srv = serve(case)
     c = Client(case)
     c.hello(points)
-    c.request(0.01)
+    c.displacement(0.01)
     c.call(MessageType.WRITE, wire.pack_write(0.01))
     c.bye()
     assert finished(srv) == 0
@@ -670,7 +606,7 @@ def test_an_unreadable_state_file_is_ignored_on_restart(case, serve, points, tru
     srv = serve(case)
     c = Client(case)
     c.hello(points)
-    assert np.array_equal(c.request(0.02), truth(0.02))
+    assert np.array_equal(c.displacement(0.02), truth(0.02))
     c.bye()
     assert finished(srv) == 0
 
@@ -915,8 +851,6 @@ def test_soak_server_memory_is_flat(tmp_path):
 
 def test_absurd_and_negative_times_are_refused_not_hung(tmp_path, smoke_scene):
     """A REQUEST 1e300 s ahead would keep the animator marching for ever: it is an ERROR."""
-    from adapter.server import StepServer
-
     srv = StepServer(tmp_path, smoke_scene)
     srv.start()
     try:

@@ -62,3 +62,63 @@ def test_blow_up_raises_and_the_integrator_refuses_to_go_on():
 def test_unknown_method_is_named():
     with pytest.raises(ValueError, match="unknown integrator 'leapfrogish'"):
         make_integrator("leapfrogish", lambda X, V: X, 0.1)
+
+
+# -- the whole family -----------------------------------------------------------------------
+
+from adapter.integrators import METHODS  # noqa: E402
+from adapter.stability import mode_stable_dt  # noqa: E402
+
+THEORY = {"forward_euler": 1, "symplectic_euler": 1, "verlet": 2, "rk4": 4,
+          "backward_euler": 1}
+
+
+def _run_method(method, dt, t_end=2.0, k=4.0, mu=0.3, stretch=0.01):
+    X0, net = _damped_spring(k, mu)
+    X = X0.copy()
+    X[1, 0] += stretch
+    V = np.zeros_like(X)
+    integ = make_integrator(method, net.forces, dt, network=net)
+    for _ in range(int(round(t_end / dt))):
+        X, V = integ.step(X, V)
+    return (X[1, 0] - X[0, 0] - 1.0), _closed_form(t_end, k, mu, stretch)
+
+
+@pytest.mark.parametrize("method", sorted(METHODS))
+def test_each_method_converges_at_its_order(method):
+    dts = (0.02, 0.01, 0.005) if method != "rk4" else (0.04, 0.02, 0.01)
+    errors = [abs(np.subtract(*_run_method(method, dt))) for dt in dts]
+    order = np.polyfit(np.log(dts), np.log(errors), 1)[0]
+    assert abs(order - THEORY[method]) < 0.2, (method, errors, order)
+
+
+@pytest.mark.parametrize("method", sorted(METHODS))
+def test_compiled_step_equals_the_numpy_step(method):
+    rng = np.random.default_rng(1)
+    X0 = rng.standard_normal((30, 3))
+    edges = np.array([[a, b] for a in range(30) for b in range(a + 1, 30) if rng.random() < 0.2])
+    net = network_from_edges(X0, edges, rng.uniform(1, 5, 30), mu=0.2, nu=0.05)
+    X = X0 + 0.05 * rng.standard_normal(X0.shape)
+    V = 0.1 * rng.standard_normal(X0.shape)
+    fast = make_integrator(method, net.forces, 0.01, network=net)
+    slow = make_integrator(method, net.forces_numpy, 0.01, network=net)
+    for a, b in zip(fast.step(X, V), slow.step(X, V), strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
+
+
+def test_single_oscillator_limits_are_the_classical_ones():
+    w2, c = np.array([100.0]), np.array([0.0])
+    assert mode_stable_dt("symplectic_euler", w2, c)[0] == pytest.approx(0.2, rel=1e-6)
+    assert mode_stable_dt("verlet", w2, c)[0] == pytest.approx(0.2, rel=1e-6)
+    assert mode_stable_dt("rk4", w2, c)[0] == pytest.approx(2 * np.sqrt(2) / 10, rel=1e-3)
+    assert mode_stable_dt("forward_euler", w2, c)[0] < 1e-6  # none without damping
+    # lightly damped: forward Euler's c / omega^2
+    assert mode_stable_dt("forward_euler", w2, np.array([0.5]))[0] == pytest.approx(0.005,
+                                                                                     rel=1e-6)
+    assert np.isinf(mode_stable_dt("backward_euler", w2, c)[0])
+
+
+def test_backward_euler_needs_the_network():
+    X0, net = _damped_spring()
+    with pytest.raises(ValueError, match="network"):
+        make_integrator("backward_euler", net.forces, 0.1)

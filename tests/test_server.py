@@ -10,7 +10,6 @@ import stat
 import struct
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -25,55 +24,10 @@ from adapter.protocol import ErrorCode, MessageType
 from adapter.scene import load_scene
 from adapter.server import ServerStartError, StepServer, time_name
 
+from .wire_client import Client, ServerSaid, finished, server_starter
+
 DT = 0.01
 TIMES = [DT * k for k in range(1, 7)]
-
-
-class ServerSaid(Exception):
-    def __init__(self, code, message):
-        super().__init__(f"ERROR {code}: {message}")
-        self.code, self.message = code, message
-
-
-class Client:
-    """One OpenFOAM rank, as the C++ boundary condition would speak."""
-
-    def __init__(self, case: Path):
-        self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-        self.sock.connect(str(case / ".whale-adapter.sock"))
-        self.seq = 0
-
-    def call(self, msg_type, payload=b""):
-        self.seq += 1
-        wire.send_frame(self.sock, msg_type, payload, self.seq)
-        return self.reply()
-
-    def reply(self):
-        frame = wire.read_frame(self.sock, 20)
-        if frame.type == MessageType.ERROR:
-            raise ServerSaid(*wire.unpack_error(frame.payload))
-        assert frame.seq == self.seq
-        return frame
-
-    def hello(self, points, rank=0, n_ranks=1, token=""):
-        f = self.call(MessageType.HELLO, wire.pack_hello(rank, n_ranks, points, token))
-        assert f.type == MessageType.WELCOME
-        return wire.unpack_welcome(f.payload)
-
-    def request(self, t, fp=(np.nan,) * 3, fv=(np.nan,) * 3):
-        f = self.call(MessageType.REQUEST, wire.pack_request(t, fp, fv))
-        assert f.type == MessageType.DISPLACEMENT
-        t_back, disp = wire.unpack_displacement(f.payload)
-        assert t_back == t
-        return f.payload, disp
-
-    def write(self, t):
-        assert self.call(MessageType.WRITE, wire.pack_write(t)).type == MessageType.ACK
-
-    def bye(self):
-        self.seq += 1
-        wire.send_frame(self.sock, MessageType.BYE, b"", self.seq)
-        self.sock.close()
 
 
 @pytest.fixture(scope="module")
@@ -116,27 +70,9 @@ def case(tmp_path):
 
 @pytest.fixture
 def serve(scene, animator):
-    started = []
-
-    def start(case_dir, **kw):
-        kw.setdefault("animator", animator)
-        srv = StepServer(case_dir, kw.pop("scene", scene), first_client_timeout=30, **kw)
-        srv.start()
-        srv.thread = threading.Thread(target=srv.run, daemon=True)
-        srv.thread.start()
-        started.append(srv)
-        return srv
-
+    start, stop_all = server_starter(scene, animator, first_client_timeout=30)
     yield start
-    for srv in started:
-        srv.stop()
-        srv.thread.join(10)
-
-
-def finished(srv, timeout=10):
-    srv.thread.join(timeout)
-    assert not srv.thread.is_alive(), "server did not exit"
-    return srv.exit_code
+    stop_all()
 
 
 def expected(surface, pts, node_disp):
