@@ -14,6 +14,7 @@ The time choice, the input checks and the missing-ParaView message are tested wi
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -188,9 +189,15 @@ def _load_state(state: Path) -> dict:
     )
     script = state.parent / "_load_state.py"
     script.write_text(snippet)
-    proc = subprocess.run(["xvfb-run", "-a", "-n", "700", "-s", R.XVFB_SCREEN, "pvpython",
-                           str(script), str(state)], capture_output=True, text=True,
-                          cwd=state.parent, env=R._clean_env())
+    # Xvfb now and then fails to come up for a client ("bad X server connection"): that is
+    # the virtual screen, not the state file, so try again on another display number
+    for attempt in range(3):
+        proc = subprocess.run(["xvfb-run", "-a", "-n", str(700 + 37 * attempt + os.getpid() % 97),
+                               "-s", R.XVFB_SCREEN, "pvpython", str(script), str(state)],
+                              capture_output=True, text=True, cwd=state.parent,
+                              env=R._clean_env())
+        if R._X_FAILURE not in proc.stdout + proc.stderr:
+            break
     line = [s for s in proc.stdout.splitlines() if s.startswith("STATE ")]
     assert proc.returncode == 0 and line, f"LoadState failed:\n{proc.stdout}\n{proc.stderr}"
     return json.loads(line[0][len("STATE "):])
