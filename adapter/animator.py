@@ -95,6 +95,7 @@ class Animator:
         self.integrator = make_integrator(
             method, self.network.forces, self.dt, runaway=2.0 * surf.length,
             reference=self.rest, stable_dt=self.stable_dt, network=self.network,
+            reuse_buffers=True,
         )
         self.reset()
 

@@ -15,6 +15,7 @@ interpolated piecewise linearly in time.
 
 from __future__ import annotations
 
+import bisect
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -66,19 +67,30 @@ class FlukeTable:
     angle: np.ndarray
 
     def __post_init__(self):
-        # the periodic closure, built once: the table is read at every internal step
-        object.__setattr__(self, "_xp", np.r_[self.phase, self.phase[0] + 1.0])
-        object.__setattr__(self, "_fp", np.r_[self.angle, self.angle[0]])
+        # the periodic closure, built once as plain floats: the table is read at every
+        # internal step, where numpy's per-call overhead would cost more than the lookup
+        object.__setattr__(self, "_xp", [*map(float, self.phase), float(self.phase[0]) + 1.0])
+        object.__setattr__(self, "_fp", [*map(float, self.angle), float(self.angle[0])])
+
+    def _segment(self, phase: float) -> tuple[int, float]:
+        """(k, phase in [0, 1) wrapped) with xp[k] <= phase < xp[k + 1]."""
+        x = phase % 1.0
+        if x < self._xp[0]:  # before the first row: the wrap-around segment
+            x += 1.0
+        k = min(max(bisect.bisect_right(self._xp, x) - 1, 0), len(self._xp) - 2)
+        return k, x
 
     def __call__(self, phase: float) -> float:
         """Angle (rad) at a phase, piecewise linear and periodic."""
-        return float(np.interp(phase % 1.0, self._xp, self._fp))
+        k, x = self._segment(phase)
+        xp, fp = self._xp, self._fp
+        return fp[k] + (fp[k + 1] - fp[k]) * (x - xp[k]) / (xp[k + 1] - xp[k])
 
     def rate(self, phase: float) -> float:
         """d angle / d phase (rad per cycle) of the piecewise linear interpolant."""
+        k, _ = self._segment(phase)
         xp, fp = self._xp, self._fp
-        k = int(np.clip(np.searchsorted(xp, phase % 1.0, side="right") - 1, 0, len(xp) - 2))
-        return float((fp[k + 1] - fp[k]) / (xp[k + 1] - xp[k]))
+        return (fp[k + 1] - fp[k]) / (xp[k + 1] - xp[k])
 
 
 def load_fluke_table(name: str, base_dir: str | Path = ".", scale: float = 1.0) -> FlukeTable:
@@ -128,7 +140,7 @@ def rotation_y(theta: float) -> np.ndarray:
     return np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_dot):
     """Shift the fluke nodes with the hinge and rotate them by ``theta`` (in place).
 

@@ -4,21 +4,159 @@ The base class :class:`Integrator` owns the step size, the step count and the st
 every new state, and refuses to step once it has failed; each method implements only
 ``_step``. :data:`METHODS` maps the names a scene file uses to the classes.
 
-Forward Euler is the paper's method:
+=================  =====  ======================================================  ============
+name               order  one step                                                force calls
+=================  =====  ======================================================  ============
+forward_euler      1      X' = X + dt V,  V' = V + dt F(X, V)  (the paper's)      1
+symplectic_euler   1      V' = V + dt F(X, V),  X' = X + dt V'                    1
+verlet             2      velocity Verlet, damping by a velocity predictor         2
+rk4                4      classical Runge-Kutta on (X, V)                          4
+backward_euler     1      one linearised implicit step (Baraff & Witkin 1998)      1 + solve
+=================  =====  ======================================================  ============
 
-    X^{n+1} = X^n + dt V^n,    V^{n+1} = V^n + dt F^n.
+Velocity Verlet with a velocity-dependent force: with a0 = F(X, V),
+``Vh = V + dt/2 a0``, ``X' = X + dt Vh``, ``a1 = F(X', Vh + dt/2 a0)`` (the velocity at the
+new position predicted to first order), ``V' = Vh + dt/2 a1``. Undamped it is the usual
+Verlet; the damping term is then integrated by the trapezoidal rule (Heun), so the method stays
+second order. The acceleration is not carried from step to step, because the animator changes
+X and V between steps (the fluke gate, the stroke's events).
+
+Backward Euler: with J_x = dF/dX and J_v = dF/dV at (X, V),
+``(I - dt J_v - dt^2 J_x) dV = dt (F + dt J_x V)``, ``V' = V + dV``, ``X' = X + dt V'``: one
+sparse LU solve per step (scipy.sparse.linalg.splu; the paper's force is not symmetric).
+
+When the integrator is given the :class:`~adapter.springs.SpringNetwork` (``network=``) and
+its force is that network's, each explicit step runs as one compiled pass (numba): the force
+kernel fused with the update and the check, no temporary arrays beyond the two returned.
 """
 
 from __future__ import annotations
 
 from typing import Callable
 
+import numba
 import numpy as np
 
 from .errors import UnstableError
+from .springs import _edge_forces
 
 Force = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
+
+# -- compiled kernels -----------------------------------------------------------------------
+
+@numba.njit(cache=True, error_model="numpy")
+def _axpy(out, X, dt, V):  # pragma: no cover - compiled
+    """out = X + dt V, element-wise over (N, 3)."""
+    for a in range(X.shape[0]):
+        for d in range(3):
+            out[a, d] = X[a, d] + dt * V[a, d]
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _fe_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cover
+    _fe_checked(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, X)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _fe_checked(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, ref):  # pragma: no cover
+    """Forward Euler fused with the check: returns max |X1 - ref|, inf on NaN or infinity."""
+    _edge_forces(X, V, i, j, rest, ki, kj, mu, nu, V1)
+    x0, v0, r = X.reshape(-1), V.reshape(-1), ref.reshape(-1)
+    x1, v1 = X1.reshape(-1), V1.reshape(-1)
+    m = 0.0
+    for a in range(x0.shape[0]):
+        x = x0[a] + dt * v0[a]
+        v = v0[a] + dt * v1[a]
+        x1[a] = x
+        v1[a] = v
+        if not (np.isfinite(x) and np.isfinite(v)):
+            m = np.inf
+        elif abs(x - r[a]) > m:
+            m = abs(x - r[a])
+    return m
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _se_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cover
+    _edge_forces(X, V, i, j, rest, ki, kj, mu, nu, V1)
+    for a in range(X.shape[0]):
+        for d in range(3):
+            v = V[a, d] + dt * V1[a, d]
+            V1[a, d] = v
+            X1[a, d] = X[a, d] + dt * v
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _verlet_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cover
+    a0 = np.empty_like(X)
+    vp = np.empty_like(X)
+    _edge_forces(X, V, i, j, rest, ki, kj, mu, nu, a0)
+    h = 0.5 * dt
+    for a in range(X.shape[0]):
+        for d in range(3):
+            vh = V[a, d] + h * a0[a, d]
+            V1[a, d] = vh
+            X1[a, d] = X[a, d] + dt * vh
+            vp[a, d] = vh + h * a0[a, d]
+    _edge_forces(X1, vp, i, j, rest, ki, kj, mu, nu, a0)
+    for a in range(X.shape[0]):
+        for d in range(3):
+            V1[a, d] += h * a0[a, d]
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _rk4_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cover
+    n = X.shape[0]
+    Xs = np.empty_like(X)
+    Vs = np.empty_like(X)
+    F = np.empty_like(X)
+    h = 0.5 * dt
+    w = dt / 6.0
+    # stage 1: k1 = (V, F(X, V))
+    _edge_forces(X, V, i, j, rest, ki, kj, mu, nu, F)
+    for a in range(n):
+        for d in range(3):
+            X1[a, d] = X[a, d] + w * V[a, d]
+            V1[a, d] = V[a, d] + w * F[a, d]
+            Xs[a, d] = X[a, d] + h * V[a, d]
+            Vs[a, d] = V[a, d] + h * F[a, d]
+    # stages 2 and 3: k = (Vs, F(Xs, Vs)) at the midpoint
+    for stage in range(2):
+        _edge_forces(Xs, Vs, i, j, rest, ki, kj, mu, nu, F)
+        step = h if stage == 0 else dt
+        for a in range(n):
+            for d in range(3):
+                vs = Vs[a, d]
+                X1[a, d] += 2.0 * w * vs
+                V1[a, d] += 2.0 * w * F[a, d]
+                Xs[a, d] = X[a, d] + step * vs
+                Vs[a, d] = V[a, d] + step * F[a, d]
+    # stage 4 at the end of the step
+    _edge_forces(Xs, Vs, i, j, rest, ki, kj, mu, nu, F)
+    for a in range(n):
+        for d in range(3):
+            X1[a, d] += w * Vs[a, d]
+            V1[a, d] += w * F[a, d]
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _deviation(X, V, ref):  # pragma: no cover - compiled
+    """Largest |X - ref| over all entries; inf if X or V holds NaN or infinity."""
+    m = 0.0
+    for a in range(X.shape[0]):
+        for d in range(3):
+            x = X[a, d]
+            v = V[a, d]
+            if not (np.isfinite(x) and np.isfinite(v)):
+                return np.inf
+            r = abs(x - ref[a, d])
+            if r > m:
+                m = r
+    return m
+
+
+# -- the family -----------------------------------------------------------------------------
 
 class Integrator:
     """Base class: advances (X, V) by a fixed step ``dt`` with the force function ``force``.
@@ -30,13 +168,23 @@ class Integrator:
     runaway : largest displacement (m) from ``reference`` allowed before the run is called
         unstable; ``None`` checks only for NaN and infinity.
     reference : (N, 3) rest positions used by the runaway check.
+    stable_dt : the largest stable step (s) predicted for this method, named in the error.
+    network : the :class:`~adapter.springs.SpringNetwork` whose ``forces`` is ``force``;
+        enables the compiled steps, and is required by ``backward_euler`` (its Jacobian).
+    reuse_buffers : let the compiled steps write into three array sets in turn instead of new
+        arrays (a returned state is overwritten three steps later).
     """
 
     name = "base"
     order = 0
+    #: force evaluations per step (the work of one step, for the charts)
+    force_calls = 1
+    #: a compiled step fused with the check (returns the largest deviation), where there is one
+    _checked_kernel = None
 
     def __init__(self, force: Force, dt: float, runaway: float | None = None,
-                 reference: np.ndarray | None = None, stable_dt: float | None = None):
+                 reference: np.ndarray | None = None, stable_dt: float | None = None,
+                 network=None, reuse_buffers: bool = False):
         if not dt > 0:
             raise ValueError(f"dt must be positive, got {dt}")
         self.force = force
@@ -44,24 +192,72 @@ class Integrator:
         self.runaway = runaway
         self.reference = reference
         self.stable_dt = stable_dt
+        self.network = network
         self.n_steps = 0
         self.status = "running"
+        #: with ``reuse_buffers`` a compiled step writes into three array sets in turn: a
+        #: returned state stays valid for two more steps (enough for the animator, which keeps
+        #: the current and the previous step and copies what it hands out)
+        self._buffers = [] if reuse_buffers else None
+        self._turn = 0
+        self._kernel_args = None
+        if network is not None and _same_force(force, network):
+            net = network
+            self._kernel_args = (net.i, net.j, net.rest, net._k_on_i, net._k_on_j,
+                                 float(net.mu), float(net.nu))
 
     def step(self, X: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """One step from (X, V); raises :class:`UnstableError` (and fails for good) on blow-up."""
+        """One step from (X, V); raises :class:`UnstableError` (and fails for good) on blow-up.
+
+        The new state is checked before it is returned: a NaN or runaway state is never
+        handed on.
+        """
         if self.status == "failed":
             raise UnstableError(f"{self.name}: the integrator has failed before; start anew")
-        X1, V1 = self._step(X, V, self.dt)
+        if self._kernel_args is not None and hasattr(self, "_kernel"):
+            X1, V1 = self._outputs(X, V)
+            if self._checked_kernel is not None and self.reference is not None:
+                # the paper's method on the hot path: step and check in one pass
+                dev = self._checked_kernel(X, V, *self._kernel_args, self.dt, X1, V1,
+                                           self.reference)
+                self.n_steps += 1
+                self._verdict(dev)
+                return X1, V1
+            type(self)._kernel(X, V, *self._kernel_args, self.dt, X1, V1)
+        else:
+            X1, V1 = self._step(X, V, self.dt)
         self.n_steps += 1
         self.check(X1, V1)
         return X1, V1
 
+    def _outputs(self, X: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Arrays for the new state: fresh ones, or with ``reuse_buffers`` the next of three
+        sets taken in turn. Three, because the caller holds the state it passed in and the one
+        before it (the animator's current and previous steps); allocating ~0.3 MB twice per
+        step instead costs page faults that made the step a quarter slower."""
+        if self._buffers is None:
+            return np.empty_like(X), np.empty_like(V)
+        if not self._buffers or self._buffers[0][0].shape != X.shape:
+            self._buffers = [(np.empty_like(X), np.empty_like(V)) for _ in range(3)]
+        self._turn = (self._turn + 1) % 3
+        return self._buffers[self._turn]
+
     def check(self, X: np.ndarray, V: np.ndarray) -> None:
         """Fail if the state holds NaN or infinity, or has run away from the reference."""
-        bad = not (np.isfinite(X).all() and np.isfinite(V).all())
-        if not bad and self.runaway is not None and self.reference is not None:
-            bad = np.abs(X - self.reference).max() > self.runaway
-        if bad:
+        ref = self.reference if self.reference is not None else X
+        if X.dtype == np.float64 and X.ndim == 2 and X.shape[1] == 3 and V.shape == X.shape:
+            dev = _deviation(X, V, ref)
+        else:
+            dev = (np.abs(X - ref).max() if np.isfinite(X).all() and np.isfinite(V).all()
+                   else np.inf)
+        self._verdict(dev)
+
+    def _verdict(self, dev: float) -> None:
+        """Fail (for good) if the largest deviation from the reference is past the runaway
+        limit or not a number."""
+        limit = self.runaway if (self.runaway is not None and self.reference is not None) \
+            else np.inf
+        if not dev <= limit:
             self.status = "failed"
             hint = (f"; the largest stable step predicted for {self.name} is "
                     f"{self.stable_dt:.3g} s" if self.stable_dt else "")
@@ -75,22 +271,122 @@ class Integrator:
         raise NotImplementedError
 
 
+def _same_force(force, network) -> bool:
+    """True if ``force`` is ``network.forces`` (the compiled kernels compute that force)."""
+    return getattr(force, "__self__", None) is network and \
+        getattr(force, "__name__", "") == "forces"
+
+
 class ForwardEuler(Integrator):
     """The paper's method: first order, explicit."""
 
     name = "forward_euler"
     order = 1
+    _kernel = _fe_kernel
+    _checked_kernel = staticmethod(_fe_checked)
 
     def _step(self, X, V, dt):
         F = self.force(X, V)
         return X + dt * V, V + dt * F
 
 
-METHODS: dict[str, type[Integrator]] = {ForwardEuler.name: ForwardEuler}
+class SymplecticEuler(Integrator):
+    """Semi-implicit Euler: the velocity first, then the position with the new velocity."""
+
+    name = "symplectic_euler"
+    order = 1
+    _kernel = _se_kernel
+
+    def _step(self, X, V, dt):
+        V1 = V + dt * self.force(X, V)
+        return X + dt * V1, V1
+
+
+class Verlet(Integrator):
+    """Velocity Verlet; the damping by a first-order velocity predictor (second order)."""
+
+    name = "verlet"
+    order = 2
+    force_calls = 2
+    _kernel = _verlet_kernel
+
+    def _step(self, X, V, dt):
+        a0 = self.force(X, V)
+        Vh = V + 0.5 * dt * a0
+        X1 = X + dt * Vh
+        a1 = self.force(X1, Vh + 0.5 * dt * a0)
+        return X1, Vh + 0.5 * dt * a1
+
+
+class RK4(Integrator):
+    """Classical fourth-order Runge-Kutta on the first-order system (X, V)."""
+
+    name = "rk4"
+    order = 4
+    force_calls = 4
+    _kernel = _rk4_kernel
+
+    def _step(self, X, V, dt):
+        f = self.force
+        k1x, k1v = V, f(X, V)
+        k2x = V + 0.5 * dt * k1v
+        k2v = f(X + 0.5 * dt * k1x, k2x)
+        k3x = V + 0.5 * dt * k2v
+        k3v = f(X + 0.5 * dt * k2x, k3x)
+        k4x = V + dt * k3v
+        k4v = f(X + dt * k3x, k4x)
+        return (X + dt / 6 * (k1x + 2 * k2x + 2 * k3x + k4x),
+                V + dt / 6 * (k1v + 2 * k2v + 2 * k3v + k4v))
+
+
+class BackwardEuler(Integrator):
+    """Linearised backward Euler (Baraff & Witkin 1998): one sparse solve per step.
+
+    Needs ``network=`` for the Jacobian of the spring force (:func:`stability.force_jacobian`).
+    """
+
+    name = "backward_euler"
+    order = 1
+
+    def __init__(self, force: Force, dt: float, **kwargs):
+        super().__init__(force, dt, **kwargs)
+        if self.network is None:
+            raise ValueError("backward_euler needs the spring network for its Jacobian: "
+                             "make_integrator(..., network=net)")
+        from .stability import damping_matrix
+
+        self._c = damping_matrix(self.network)  # C = -dF/dV, constant
+        self._eye = None
+
+    def _step(self, X, V, dt):
+        import scipy.sparse as sp
+        from scipy.sparse.linalg import splu
+
+        from .stability import force_jacobian
+
+        jx = force_jacobian(self.network, X)
+        n = jx.shape[0]
+        if self._eye is None:
+            self._eye = sp.identity(n, format="csc")
+        F = self.force(X, V).ravel()
+        v = V.ravel()
+        system = (self._eye + dt * self._c - (dt * dt) * jx).tocsc()
+        dv = splu(system).solve(dt * (F + dt * (jx @ v)))
+        V1 = (v + dv).reshape(V.shape)
+        return X + dt * V1, V1
+
+
+METHODS: dict[str, type[Integrator]] = {
+    cls.name: cls for cls in (ForwardEuler, SymplecticEuler, Verlet, RK4, BackwardEuler)
+}
 
 
 def make_integrator(name: str, force: Force, dt: float, **kwargs) -> Integrator:
-    """The integrator called ``name`` (a key of :data:`METHODS`)."""
+    """The integrator called ``name`` (a key of :data:`METHODS`).
+
+    Keyword arguments go to :class:`Integrator` (``runaway``, ``reference``, ``stable_dt``,
+    ``network``).
+    """
     try:
         cls = METHODS[name]
     except KeyError:

@@ -79,7 +79,9 @@ def main() -> int:
     V = 1e-3 * np.random.default_rng(1).standard_normal(a.rest.shape)
     print(f"whale: {net.n_nodes} nodes, {len(net.i)} edges, dt = {dt:.3g} s (forward Euler)")
 
-    project = make_integrator("forward_euler", net.forces, dt, network=net)
+    project = make_integrator(  # as the animator runs it: checked, into reused arrays
+        "forward_euler", net.forces, dt, network=net, reference=a.rest,
+        runaway=2.0 * a.surface.length, reuse_buffers=True)
     naive = make_integrator("forward_euler", net.forces_numpy, dt)
     lib = _c_kernel()
     X1, V1 = np.empty_like(X), np.empty_like(V)
