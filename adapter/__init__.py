@@ -18,7 +18,24 @@ from .errors import (
 )
 from .scene import Scene, load_scene
 
+
+def __getattr__(name):
+    # the heavy parts (numba kernels, VTK) load on first use, not on `import adapter`
+    if name == "Animator":
+        from .animator import Animator
+
+        return Animator
+    if name in ("build_surface", "WhaleSurface"):
+        from . import geometry
+
+        return getattr(geometry, name)
+    raise AttributeError(f"module 'adapter' has no attribute {name!r}")
+
+
 __all__ = [
+    "Animator",
+    "WhaleSurface",
+    "build_surface",
     "AdapterError",
     "GeometryError",
     "ProtocolError",

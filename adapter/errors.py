@@ -27,3 +27,11 @@ class ProtocolError(AdapterError, ConnectionError):
 
 class SolverRunError(AdapterError, RuntimeError):
     """An OpenFOAM utility or solver failed; the message points at its log file."""
+
+
+class ServerStartError(AdapterError, RuntimeError):
+    """The step-server cannot start: socket in use, unsafe TCP host, bad case folder."""
+
+
+class ParaViewError(AdapterError, RuntimeError):
+    """ParaView (pvbatch, xvfb-run) is missing, or its script failed; the message says why."""

@@ -30,7 +30,7 @@ import sys
 import time
 from pathlib import Path
 
-from .errors import AdapterError
+from .errors import AdapterError, ParaViewError
 
 #: the pvbatch script, run by ParaView's own Python
 PV_SCRIPT = Path(__file__).resolve().parent / "pvscripts" / "report.py"
@@ -45,9 +45,6 @@ _REL = 1e-9
 _X_FAILURE = "bad X server connection"
 _X_RETRIES = 1
 
-
-class ParaViewError(AdapterError, RuntimeError):
-    """ParaView (pvbatch, xvfb-run) is missing, or its script failed; the message says why."""
 
 
 def find_paraview() -> tuple[str, str]:

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from . import protocol as wire
-from .errors import AdapterError, GeometryError, UnstableError
+from .errors import GeometryError, ServerStartError, UnstableError
 from .mapping import DEFAULT_TOLERANCE, PatchMap
 from .protocol import ErrorCode, MessageType, WireError
 from .scene import PRESETS
@@ -57,9 +57,6 @@ _UNREADABLE = (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile)
 #: seconds the clients get to read an ERROR 6 before the server exits anyway
 _FATAL_GRACE_S = 10.0
 
-
-class ServerStartError(AdapterError, RuntimeError):
-    """The step-server cannot start: socket in use, unsafe TCP host, bad case folder."""
 
 
 def time_name(t: float) -> str:
