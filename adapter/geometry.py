@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.interpolate import PchipInterpolator
 
 from .errors import GeometryError
@@ -243,35 +244,36 @@ def validate_surface(points: np.ndarray, faces: list, length_scale: float) -> li
 
 
 def _check_vertex_manifold(faces: list, n: int) -> None:
-    """Every vertex's faces must form one fan (no two cones touching at a point)."""
-    import scipy.sparse as sp
+    """Every vertex's faces must form one fan: two cones touching at a point are refused.
 
-    tri_faces = []
+    The link of a vertex (the edges of its faces opposite it) is one cycle on a manifold.
+    Each face corner at v joins v's half-edges to its two neighbours in that face; the
+    connected components of that graph, counted per vertex, are its fans.
+    """
+    from scipy.sparse.csgraph import connected_components
+
+    v, p, q = [], [], []
     for f in faces:
-        tri_faces.append(f)
-    # faces around each vertex, connected through shared edges incident to the vertex
-    rows, cols = [], []
-    offset = 0
-    face_of = []
-    for f in faces:
-        for k in range(f.shape[1]):
-            rows.append(f[:, k])
-            cols.append(np.arange(len(f)) + offset)
-        face_of.append(f)
-        offset += len(f)
-    vf = sp.csr_matrix(
-        (np.ones(sum(len(r) for r in rows)), (np.concatenate(rows), np.concatenate(cols))),
-        shape=(n, offset),
-    )
-    # Euler characteristic per vertex star: for a manifold vertex, #faces == #edges at vertex
-    edges = _unique_edges(faces)
-    deg = np.bincount(edges.ravel(), minlength=n)
-    nf = np.diff(vf.indptr)
-    bad = np.flatnonzero(nf != deg)
+        k = f.shape[1]
+        for c in range(k):
+            v.append(f[:, c])
+            p.append(f[:, (c - 1) % k])
+            q.append(f[:, (c + 1) % k])
+    v, p, q = np.concatenate(v), np.concatenate(p), np.concatenate(q)
+    pairs, index = np.unique(np.concatenate([np.stack([v, p], 1), np.stack([v, q], 1)]),
+                             axis=0, return_inverse=True)
+    index = index.ravel()
+    m = len(v)
+    graph = sp.coo_matrix((np.ones(m), (index[:m], index[m:])), shape=(len(pairs),) * 2)
+    n_comp, labels = connected_components(graph, directed=False)
+    owner = np.zeros(n_comp, dtype=np.int64)
+    owner[labels] = pairs[:, 0]
+    fans = np.bincount(owner, minlength=n)
+    bad = np.flatnonzero(fans > 1)
     if bad.size:
         raise GeometryError(
             f"the surface is non-manifold at {bad.size} point(s) (e.g. point {bad[0]}): "
-            "two sheets touch there"
+            "two sheets touch there; separate them"
         )
 
 

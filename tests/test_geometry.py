@@ -118,6 +118,7 @@ def test_cube_is_valid():
         ("degenerate", "degenerate"),
         ("nonmanifold", "non-manifold"),
         ("two_pieces", "separate pieces"),
+        ("touching_at_a_point", "non-manifold at 1 point"),
     ],
 )
 def test_bad_geometry_is_named(damage, message):
@@ -140,6 +141,12 @@ def test_bad_geometry_is_named(damage, message):
     elif damage == "two_pieces":
         p = np.vstack([p, p + 5])
         f = [np.vstack([q, q + 8])]
+    elif damage == "touching_at_a_point":
+        # a second cube sharing only the corner (1, 1, 1), point 7, with the first
+        p2 = p + 1.0
+        p = np.vstack([p, p2[1:]])  # p2[0] is (1, 1, 1) = p[7]
+        remap = np.r_[7, np.arange(8, 15)]
+        f = [np.vstack([q, remap[q]])]
     with pytest.raises(GeometryError, match=message):
         validate_surface(p, f, 1.0)
 
