@@ -37,7 +37,7 @@ from adapter.protocol import HEADER, MAGIC, ErrorCode, MessageType
 from adapter.scene import load_scene
 from adapter.server import StepServer
 
-from .wire_client import Client, ServerSaid, finished, server_starter
+from .wire_client import Client, ServerSaid, finished, points_near, server_starter
 
 REPO = Path(__file__).resolve().parents[1]
 #: fuzz cases in total (the issue asks for at least 10,000)
@@ -57,12 +57,7 @@ def animator(scene):
 @pytest.fixture(scope="module")
 def points(animator):
     """60 patch points near the whale: on random triangles, lifted 1 mm off the surface."""
-    s = animator.surface
-    rng = np.random.default_rng(1)
-    tri = rng.integers(0, len(s.triangles), 60)
-    w = rng.dirichlet([1.0, 1.0, 1.0], 60)
-    pts = np.einsum("pk,pkd->pd", w, s.points[s.triangles[tri]])
-    return pts + 1e-3 * rng.normal(size=pts.shape)
+    return points_near(animator.surface, 60, seed=1)
 
 
 @pytest.fixture(scope="module")

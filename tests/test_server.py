@@ -24,7 +24,7 @@ from adapter.protocol import ErrorCode, MessageType
 from adapter.scene import load_scene
 from adapter.server import ServerStartError, StepServer, time_name
 
-from .wire_client import Client, ServerSaid, finished, server_starter
+from .wire_client import Client, ServerSaid, finished, points_near, server_starter
 
 DT = 0.01
 TIMES = [DT * k for k in range(1, 7)]
@@ -53,12 +53,7 @@ def reference(scene):
 @pytest.fixture(scope="module")
 def points(animator):
     """Patch points near the whale: on random triangles, lifted 1 mm off the surface."""
-    s = animator.surface
-    rng = np.random.default_rng(0)
-    tri = rng.integers(0, len(s.triangles), 600)
-    w = rng.dirichlet([1.0, 1.0, 1.0], 600)
-    pts = np.einsum("pk,pkd->pd", w, s.points[s.triangles[tri]])
-    return pts + 1e-3 * rng.normal(size=pts.shape)
+    return points_near(animator.surface, 600, seed=0)
 
 
 @pytest.fixture

@@ -98,3 +98,12 @@ def finished(srv, timeout=15):
     srv.thread.join(timeout)
     assert not srv.thread.is_alive(), "server did not exit"
     return srv.exit_code
+
+
+def points_near(surface, n: int, seed: int) -> np.ndarray:
+    """(n, 3) patch points near the whale: on random triangles, lifted ~1 mm off the surface."""
+    rng = np.random.default_rng(seed)
+    tri = rng.integers(0, len(surface.triangles), n)
+    w = rng.dirichlet([1.0, 1.0, 1.0], n)
+    pts = np.einsum("pk,pkd->pd", w, surface.points[surface.triangles[tri]])
+    return pts + 1e-3 * rng.normal(size=pts.shape)
