@@ -43,7 +43,7 @@ _PREFIX = "report: "
 _REL = 1e-9
 #: what pvbatch says when the X server went away under it (a display-number race): tried again
 _X_FAILURE = "bad X server connection"
-_X_RETRIES = 1
+_X_RETRIES = 3
 
 
 
@@ -183,19 +183,22 @@ def pvbatch_command(path: Path, out: Path, kind: str, times: list, *, case_type:
     return cmd
 
 
-def _run_streaming(cmd: list, log, stream, cwd: Path) -> tuple[int, list]:
-    """Run ``cmd``, copy its output to ``log``, echo its progress lines; (exit code, last lines)."""
+def _run_streaming(cmd: list, log, stream, cwd: Path) -> tuple[int, list, bool]:
+    """Run ``cmd``, copy its output to ``log``, echo its progress lines; (exit code, last
+    lines, whether pvbatch could not reach the X server anywhere in its output)."""
     log.write(" ".join(cmd) + "\n")
     log.flush()
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             env=_clean_env(), cwd=cwd)
     tail: list = []
+    x_failed = False
     for line in proc.stdout:
         log.write(line)
         tail = (tail + [line.rstrip()])[-25:]
+        x_failed = x_failed or _X_FAILURE in line
         if line.startswith(_PREFIX):
             print("paraview: " + line[len(_PREFIX):].rstrip(), file=stream, flush=True)
-    return proc.wait(), tail
+    return proc.wait(), tail, x_failed
 
 
 def _clean_env() -> dict:
@@ -249,12 +252,12 @@ def render(path, out=None, times=None, *, size=(1600, 900), animation: bool = Tr
     t0 = time.perf_counter()
     with open(log_path, "w") as log:
         for attempt in range(1 + _X_RETRIES):
-            rc, tail = _run_streaming(cmd, log, stream, out)
-            if rc == 0 or not any(_X_FAILURE in s for s in tail) or attempt == _X_RETRIES:
+            rc, tail, x_failed = _run_streaming(cmd, log, stream, out)
+            if rc == 0 or not x_failed or attempt == _X_RETRIES:
                 break
             print("paraview: pvbatch could not connect to Xvfb; trying again on another "
                   "display", file=stream, flush=True)
-            cmd[cmd.index("-n") + 1] = str(int(cmd[cmd.index("-n") + 1]) + 1)
+            cmd[cmd.index("-n") + 1] = str(int(cmd[cmd.index("-n") + 1]) + 17)
     wall = time.perf_counter() - t0
     report_file = out / "report.json"
     if rc != 0 or not report_file.is_file():
