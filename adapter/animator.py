@@ -16,7 +16,15 @@ import math
 import numpy as np
 
 from .errors import GeometryError, SceneError, UnstableError
-from .gait import QUARTER_EVENTS, load_fluke_table, place_gate, ramp, velocity_profile
+from .gait import (
+    QUARTER_EVENTS,
+    SmoothStroke,
+    load_fluke_table,
+    place_gate,
+    ramp,
+    smootherstep,
+    velocity_profile,
+)
 from .geometry import build_surface
 from .integrators import make_integrator
 from .springs import network_from_edges, region_constants
@@ -53,8 +61,8 @@ class Animator:
                 "too few body nodes just ahead of the tail base to carry the fluke hinge; "
                 "check geometry.landmarks.tail_base"
             )
-        self._hinge_nodes = np.flatnonzero(band)
-        self.hinge0 = self.rest[self._hinge_nodes].mean(axis=0)
+        self.hinge_nodes = np.flatnonzero(band)
+        self.hinge0 = self.rest[self.hinge_nodes].mean(axis=0)
         self._fluke_nodes = np.flatnonzero(self.fluke)
         self._fluke_arm = self.rest[self._fluke_nodes] - self.hinge0
 
@@ -64,10 +72,23 @@ class Animator:
                              sp_.transition) * sp_.stiffness_scale
         self.network = network_from_edges(self.rest, surf.edges, k, sp_.mu, sp_.nu, sp_.form)
         self.profile = velocity_profile(s, self.dynamic, scene.stroke, self.tail_base_s)
-        self.fluke_table = load_fluke_table(scene.stroke.fluke_table, scene.base_dir,
-                                            scene.stroke.fluke_angle_scale)
+        st = scene.stroke
+        #: "smooth" (a continuous push along the profile) or "negate" (the paper's events)
+        self.reversal = st.reversal
+        self.smooth = st.reversal == "smooth"
+        self.fluke_table = load_fluke_table(st.fluke_table, scene.base_dir,
+                                            st.fluke_angle_scale, spline=self.smooth)
         self.period = scene.period_s
-        self.fluke_ramp_s = scene.stroke.fluke_ramp * self.period
+        #: the start-up: the fluke angle (and, smooth, the stroke) ramps in over it (s)
+        self.ramp_s = (st.ramp_cycles if self.smooth else st.fluke_ramp) * self.period
+        self._stroke = SmoothStroke(self.period, self.ramp_s)
+        self._moving = np.flatnonzero(self.dynamic)
+        self._moving_profile = self.profile[self._moving]
+        #: smooth: the velocity force of the network on the target per unit G(t): the push
+        #: cancels it (damping between nodes and the fluid resistance nu)
+        self._moving_damping = self.network.damping_force(self.profile)[self._moving]
+        w_t = 2 * math.pi * st.tether * st.frequency_hz
+        self._tether_k, self._tether_c = w_t * w_t, 2 * w_t
 
         method = scene.integrator.method
         # predicted on the free (spring-moved) nodes; the fluke gate is kinematic
@@ -84,6 +105,10 @@ class Animator:
                 )
         elif self.stable_dt > 0:
             target = scene.integrator.safety * min(self.stable_dt, quarter)
+            if self.smooth:
+                # the stroke's push and the tether are applied once per step: resolve them
+                target = min(target, 0.05 / max(math.sqrt(self._tether_k), 2 * math.pi
+                                                / self.period))
         else:
             raise SceneError(
                 f"integrator.method = {method} has no stable step with springs.mu = "
@@ -135,7 +160,29 @@ class Animator:
     # -- stepping ---------------------------------------------------------------------------
 
     def _event(self, n: int) -> None:
-        """The stroke's velocity event at the start of each quarter (gait.QUARTER_EVENTS)."""
+        """The stroke's velocity change on arriving at internal step ``n``.
+
+        Smooth: the push over the step just taken, ``profile dG - damping(profile) dD``
+        (gait.SmoothStroke): the target's acceleration less the network's velocity force on the
+        target (mu between nodes, nu), so that the springs alone make the motion depart from
+        the target; at n = 0 the target is at rest. Negate: the event at the start of each quarter
+        (gait.QUARTER_EVENTS)."""
+        if self.smooth:
+            if n > 0:
+                law, t1, t0 = self._stroke, n * self.dt, (n - 1) * self.dt
+                dG = law.velocity(t1) - law.velocity(t0)
+                dD = law.displacement(t1) - law.displacement(t0)
+                V, m = self.V, self._moving
+                V[m, 2] += dG * self._moving_profile - dD * self._moving_damping
+                # the tether: a critically damped pull toward the target, so that the springs'
+                # departures from it stay bounded (see docs/stroke.md)
+                G1, D1 = law.velocity(t1), law.displacement(t1)
+                dev_x = self.X[m] - self.rest[m]
+                dev_x[:, 2] -= D1 * self._moving_profile
+                dev_v = V[m].copy()
+                dev_v[:, 2] -= G1 * self._moving_profile
+                V[m] -= self.dt * (self._tether_k * dev_x + self._tether_c * dev_v)
+            return
         if n % self.steps_per_quarter:
             return
         what = QUARTER_EVENTS[(n // self.steps_per_quarter) % 4]
@@ -149,13 +196,19 @@ class Animator:
 
     def _constrain(self, X: np.ndarray, V: np.ndarray, t: float) -> None:
         """Place the fluke gate: shifted with the hinge, rotated by the table's angle at t."""
-        phase = t / self.period
-        r, r_dot = ramp(t, self.fluke_ramp_s)
-        angle = self.fluke_table(phase)
-        theta = r * angle
-        theta_dot = r * self.fluke_table.rate(phase) / self.period + r_dot * angle
-        place_gate(X, V, self.rest, self._hinge_nodes, self._fluke_nodes, self._fluke_arm,
+        theta, theta_dot = self.fluke_angle(t)
+        place_gate(X, V, self.rest, self.hinge_nodes, self._fluke_nodes, self._fluke_arm,
                    self.hinge0, theta, theta_dot)
+
+    def fluke_angle(self, t: float) -> tuple[float, float]:
+        """(angle, angular velocity) of the fluke gate at time t (rad, rad/s), ramp included."""
+        phase = t / self.period
+        if self.smooth:
+            r, r_dot = smootherstep(t, self.ramp_s)[:2]
+        else:
+            r, r_dot = ramp(t, self.ramp_s)
+        angle = self.fluke_table(phase)
+        return r * angle, r * self.fluke_table.rate(phase) / self.period + r_dot * angle
 
     def _advance(self, n_target: int) -> None:
         """March the state forward to internal step ``n_target``."""

@@ -88,7 +88,8 @@ def run(scene, out: Path, cycles: int | None = None, progress: bool = True,
     body_idx = np.flatnonzero(body)
 
     volume0 = surf.volume()
-    kp_rows, env_rows, vol, mom_rate, closure = [], [], [], [], []
+    kp_rows, env_rows, vol, mom_rate, closure, rest_offset, aoa = [], [], [], [], [], [], []
+    last_cycle_end = surf.points
     frame_files, fig_states = [], {}
     if write_files:
         out.mkdir(parents=True, exist_ok=True)
@@ -104,7 +105,9 @@ def run(scene, out: Path, cycles: int | None = None, progress: bool = True,
             env_rows.append(np.bincount(which, weights=d[body_idx, 2], minlength=ENVELOPE_BINS)
                             / np.maximum(counts, 1))
             vol.append(surf.volume(X))
-            mom_rate.append(np.linalg.norm(momentum_rate(a.network, X, a.velocity(t))))
+            V = a.velocity(t)
+            mom_rate.append(np.linalg.norm(momentum_rate(a.network, X, V)))
+            aoa.append(fluke_angle_of_attack(a, t, V, scene.flow.speed_m_s))
         if write_files and key in frame_index:
             name = f"whale_{frame_index[key]:04d}.vtp"
             surf_write(surf, out / name, X, d, a.velocity(t))
@@ -113,9 +116,11 @@ def run(scene, out: Path, cycles: int | None = None, progress: bool = True,
             if abs(tf - t) < 1e-12:
                 fig_states[label] = X
         if any(abs(te - t) < 1e-12 for te in cycle_ends):
-            # the fluke nodes follow the table (pitched at phase 0 by design): the pose to
-            # return to is the body at rest, which the hinge, and so the fluke, rides on
-            closure.append(float(np.linalg.norm(d[a.dynamic], axis=1).max()))
+            # closure: how far every node is from where it was one cycle before; the offset
+            # from rest of the body (the fluke, pitched at phase 0 by design, rides on it)
+            closure.append(float(np.linalg.norm(X - last_cycle_end, axis=1).max()))
+            rest_offset.append(float(np.linalg.norm(d[a.dynamic], axis=1).max()))
+            last_cycle_end = X
         bar.update(1)
     bar.close()
 
@@ -123,6 +128,8 @@ def run(scene, out: Path, cycles: int | None = None, progress: bool = True,
     env = np.array(env_rows)
     summary = summarise(scene, a, kp, env, bins, np.array(vol), volume0, np.array(mom_rate),
                         closure, time.perf_counter() - t_wall)
+    summary.update(stroke_figures(a, kp, np.array(aoa), summary["start_s"]))
+    summary["rest_offset_m"] = rest_offset
     if write_files:
         _write_pvd(out / "whale.pvd", frame_files)
         header = "t," + ",".join(KEYPOINTS)
@@ -146,7 +153,7 @@ def summarise(scene, a, kp, env, bins, vol, volume0, mom_rate, closure, wall) ->
     t = kp[:, 0]
     period = a.period
     # whole cycles only, starting after the fluke's start-up ramp
-    start = np.ceil(a.fluke_ramp_s / period - 1e-9) * period if t[-1] - period >= 0 else 0.0
+    start = np.ceil(a.ramp_s / period - 1e-9) * period if t[-1] - period >= 0 else 0.0
     if t[-1] - start < period - 1e-9:
         start = 0.0
     sel = t >= start - 1e-9
@@ -180,13 +187,42 @@ def summarise(scene, a, kp, env, bins, vol, volume0, mom_rate, closure, wall) ->
         "amplitude_min_at": float(centres[np.nanargmin(env_ptp)]),
         "fluke_tip_target_m": target_ptp,
         "fluke_tip_error": ptp["fluke_tip"] / target_ptp - 1.0,
-        "closure_error_m": float(max(closure)) if closure else float("nan"),
+        "start_s": float(start),
+        "closure_error_m": float(closure[-1]) if closure else float("nan"),
         "closure_error_per_cycle_m": closure,
         "volume_change": float(np.abs(vol / volume0 - 1.0).max()),
         "spring_form": scene.springs.form,
         "momentum_rate_max": float(mom_rate.max()),
         "steps": int(a.step_index),
         "wall_s": float(wall),
+    }
+
+
+def fluke_angle_of_attack(a: Animator, t: float, V: np.ndarray, speed: float) -> float:
+    """Effective angle of attack of the flukes (deg) at t: the gate's pitch plus the angle of
+    the water's velocity relative to the hinge, ``theta + atan(w_hinge / U)`` (the usual
+    definition for a heaving and pitching foil, taken at its pitch axis; positive: the water
+    meets the fluke's lower side)."""
+    theta = a.fluke_angle(t)[0]
+    w = float(V[a.hinge_nodes, 2].mean())
+    return float(np.degrees(theta + np.arctan2(w, speed)))
+
+
+def stroke_figures(a: Animator, kp: np.ndarray, aoa: np.ndarray, start: float) -> dict:
+    """Symmetry of the stroke and the flukes' angle of attack over the measured cycles."""
+    t = kp[:, 0]
+    sel = t >= start - 1e-9
+    tail = kp[sel, KEYPOINTS.index("tail_base") + 1]
+    up, down = float(tail.max()), float(-tail.min())
+    a_sel = aoa[sel]
+    return {
+        "stroke_reversal": a.reversal,
+        "tail_base_up_m": up,
+        "tail_base_down_m": down,
+        "stroke_asymmetry": abs(up / down - 1.0) if down > 0 else float("nan"),
+        "fluke_aoa_deg": {"max_abs": float(np.abs(a_sel).max()),
+                          "at_top": float(a_sel[np.argmax(tail)]),
+                          "at_bottom": float(a_sel[np.argmin(tail)])},
     }
 
 
@@ -246,5 +282,11 @@ def _cmd_dry_run(args: argparse.Namespace) -> int:
     print("  phase vs fluke tip: " + ", ".join(f"{k} {v:+.0f} deg" for k, v in ph.items()))
     print(f"  smallest amplitude at {summary['amplitude_min_at']:.2f} L; closure error "
           f"{summary['closure_error_m']:.3g} m; volume change {summary['volume_change']:.2%}")
+    aoa = summary["fluke_aoa_deg"]
+    print(f"  stroke ({summary['stroke_reversal']}): tail base up "
+          f"{summary['tail_base_up_m']:.3f} m, down {summary['tail_base_down_m']:.3f} m; "
+          "fluke angle of attack: largest "
+          f"{aoa['max_abs']:.1f} deg, {aoa['at_top']:+.1f} at the top, {aoa['at_bottom']:+.1f} "
+          "at the bottom")
     print(f"  wrote {args.out}/whale.pvd, keypoints.csv, summary.json, keypoints.png, frames.png")
     return 0

@@ -1,6 +1,9 @@
 """The stroke: initial velocity profiles (paper section 3.1) and the fluke as a hinged gate.
 
-A full cycle, quarter by quarter (each quarter lasts T / 4 for the stroke period T):
+Two ways to turn the stroke (``stroke.reversal``):
+
+``"negate"`` (the paper's). A full cycle, quarter by quarter (each quarter lasts T / 4 for the
+stroke period T):
 
     0. from the flat equilibrium, the *upward* profile as initial velocity;
     1. at the top of the upstroke every velocity is negated, and the whale runs back the same
@@ -8,14 +11,27 @@ A full cycle, quarter by quarter (each quarter lasts T / 4 for the stroke period
     2. the *downward* profile (the upward one negated) replaces the velocities;
     3. at the bottom every velocity is negated again.
 
-Cycles repeat. The fluke (every node behind the tail base) is not part of the spring system:
-it is a gate hinged at the tail base, shifted with it and rotated by the angle of a table
-interpolated piecewise linearly in time.
+Cycles repeat. Each event is an instantaneous change of every node's velocity.
+
+``"smooth"`` (the default, for coupled runs). The same profile drives the same network, but as
+a smooth target: every moving node is pushed along ``profile * G(t)``, the velocity of the
+displacement ``profile * D(t)``, D(t) = r(t) sin(w t) / w, with r a quintic ramp from 0 to 1
+over ``stroke.ramp_cycles`` (:class:`SmoothStroke`). The push is the acceleration that moves a
+free unit mass along the target against the fluid resistance nu, ``G'(t) + nu G(t)``, applied
+as a velocity increment after each internal step; the springs and damping act on top of it as
+in the paper. The wall velocity is continuous at the start and at every reversal, and up and
+down strokes are mirror images.
+
+The fluke (every node behind the tail base) is not part of the spring system: it is a gate
+hinged at the tail base, shifted with it and rotated by the angle of a table interpolated in
+time: piecewise linearly with ``"negate"``, by a periodic cubic spline (continuous angular
+velocity) with ``"smooth"``.
 """
 
 from __future__ import annotations
 
 import bisect
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,8 +41,10 @@ import numpy as np
 from .errors import SceneError
 from .scene import DATA_DIR
 
-#: what happens to the velocities at the start of each quarter of the cycle
+#: what happens to the velocities at the start of each quarter of the cycle ("negate" stroke)
 QUARTER_EVENTS = ("up", "negate", "down", "negate")
+#: the ways the stroke turns (scene key ``stroke.reversal``)
+REVERSALS = ("smooth", "negate")
 
 
 def velocity_profile(s: np.ndarray, dynamic: np.ndarray, stroke, tail_base_s: float) -> np.ndarray:
@@ -61,16 +79,28 @@ def velocity_profile(s: np.ndarray, dynamic: np.ndarray, stroke, tail_base_s: fl
 
 @dataclass(frozen=True)
 class FlukeTable:
-    """Fluke angle through one cycle: ``phase`` in [0, 1), ``angle`` in radians."""
+    """Fluke angle through one cycle: ``phase`` in [0, 1), ``angle`` in radians.
+
+    ``spline=False`` interpolates piecewise linearly (the angular velocity jumps at every
+    row), ``spline=True`` by a periodic cubic spline (angle and angular velocity continuous).
+    """
 
     phase: np.ndarray
     angle: np.ndarray
+    spline: bool = False
 
     def __post_init__(self):
         # the periodic closure, built once as plain floats: the table is read at every
         # internal step, where numpy's per-call overhead would cost more than the lookup
         object.__setattr__(self, "_xp", [*map(float, self.phase), float(self.phase[0]) + 1.0])
         object.__setattr__(self, "_fp", [*map(float, self.angle), float(self.angle[0])])
+        if self.spline:
+            from scipy.interpolate import CubicSpline
+
+            cs = CubicSpline(self._xp, self._fp, bc_type="periodic")
+            # per segment: the four polynomial coefficients, as plain floats
+            object.__setattr__(self, "_coef", [tuple(map(float, cs.c[:, k]))
+                                               for k in range(cs.c.shape[1])])
 
     def _segment(self, phase: float) -> tuple[int, float]:
         """(k, phase in [0, 1) wrapped) with xp[k] <= phase < xp[k + 1]."""
@@ -81,24 +111,41 @@ class FlukeTable:
         return k, x
 
     def __call__(self, phase: float) -> float:
-        """Angle (rad) at a phase, piecewise linear and periodic."""
+        """Angle (rad) at a phase, periodic."""
         k, x = self._segment(phase)
         xp, fp = self._xp, self._fp
+        if self.spline:
+            a, b, c, d = self._coef[k]
+            h = x - xp[k]
+            return ((a * h + b) * h + c) * h + d
         return fp[k] + (fp[k + 1] - fp[k]) * (x - xp[k]) / (xp[k + 1] - xp[k])
 
     def rate(self, phase: float) -> float:
-        """d angle / d phase (rad per cycle) of the piecewise linear interpolant."""
-        k, _ = self._segment(phase)
+        """d angle / d phase (rad per cycle) of the interpolant."""
+        k, x = self._segment(phase)
         xp, fp = self._xp, self._fp
+        if self.spline:
+            a, b, c, _ = self._coef[k]
+            h = x - xp[k]
+            return (3 * a * h + 2 * b) * h + c
         return (fp[k + 1] - fp[k]) / (xp[k + 1] - xp[k])
 
 
-def load_fluke_table(name: str, base_dir: str | Path = ".", scale: float = 1.0) -> FlukeTable:
-    """Read a fluke angle table: ``default`` or a CSV with columns ``phase,angle_deg``.
+#: the fluke tables shipped with the package (scene key ``stroke.fluke_table``)
+SHIPPED_TABLES = {"default": "fluke_angles.csv", "quadrature15": "fluke_angles_quadrature15.csv"}
+
+
+def load_fluke_table(name: str, base_dir: str | Path = ".", scale: float = 1.0,
+                     spline: bool = False) -> FlukeTable:
+    """Read a fluke angle table: a shipped one (:data:`SHIPPED_TABLES`) or a CSV with columns
+    ``phase,angle_deg``.
 
     Lines starting with ``#`` are comments. Phases must rise strictly within [0, 1).
     """
-    path = DATA_DIR / "fluke_angles.csv" if name == "default" else Path(base_dir) / name
+    if name in SHIPPED_TABLES:
+        path = DATA_DIR / SHIPPED_TABLES[name]
+    else:
+        path = Path(base_dir) / name
     where = f"stroke.fluke_table ({path})"
     if not path.is_file():
         raise SceneError(f"{where}: file not found; give a CSV with columns phase,angle_deg")
@@ -119,7 +166,7 @@ def load_fluke_table(name: str, base_dir: str | Path = ".", scale: float = 1.0) 
         raise SceneError(f"{where}: phases must rise strictly within [0, 1)")
     if np.abs(angle).max() * scale >= 90:
         raise SceneError(f"{where}: angles must stay within +-90 degrees")
-    return FlukeTable(phase, np.radians(angle * scale))
+    return FlukeTable(phase, np.radians(angle * scale), spline=spline)
 
 
 def ramp(t: float, duration: float) -> tuple[float, float]:
@@ -132,6 +179,36 @@ def ramp(t: float, duration: float) -> tuple[float, float]:
         return 1.0, 0.0
     x = max(t, 0.0) / duration
     return x * x * (3 - 2 * x), 6 * x * (1 - x) / duration
+
+
+def smootherstep(t: float, duration: float) -> tuple[float, float, float]:
+    """Start-up ramp (value, first and second derivative): 0 -> 1 over ``duration`` as the
+    quintic 10 x^3 - 15 x^4 + 6 x^5, whose first and second derivatives vanish at both ends."""
+    if duration <= 0 or t >= duration:
+        return 1.0, 0.0, 0.0
+    x = max(t, 0.0) / duration
+    return (x**3 * (10 - 15 * x + 6 * x * x), 30 * x * x * (1 - x) ** 2 / duration,
+            60 * x * (1 - x) * (1 - 2 * x) / duration**2)
+
+
+class SmoothStroke:
+    """The smooth stroke's time law per unit profile speed (m/s): the target displacement
+    ``D(t) = r(t) sin(w t) / w`` and its velocity ``G(t) = D'(t)``, w = 2 pi / period, r the
+    quintic ramp over ``ramp_s`` (:func:`smootherstep`). Phase 0 is the tail at rest moving
+    up, 0.25 the top, 0.75 the bottom, as for the fluke table."""
+
+    def __init__(self, period: float, ramp_s: float):
+        self.omega = 2 * math.pi / period
+        self.ramp_s = ramp_s
+
+    def displacement(self, t: float) -> float:
+        r = smootherstep(t, self.ramp_s)[0]
+        return r * math.sin(self.omega * t) / self.omega
+
+    def velocity(self, t: float) -> float:
+        r, r1, _ = smootherstep(t, self.ramp_s)
+        w = self.omega
+        return r1 * math.sin(w * t) / w + r * math.cos(w * t)
 
 
 def rotation_y(theta: float) -> np.ndarray:

@@ -100,8 +100,16 @@ class Stroke:
     fluke_table: str = "default"
     #: multiplies the table's angles
     fluke_angle_scale: float = field(default=1.0, metadata={"check": _non_negative})
-    #: the fluke angle ramps in from flat over this fraction of the first cycle
+    #: the fluke angle ramps in from flat over this fraction of the first cycle ("negate")
     fluke_ramp: float = field(default=0.25, metadata={"check": lambda v: 0 <= v <= 4})
+    #: how the stroke turns: "smooth" (continuous wall velocity; the default for coupled
+    #: runs) or "negate" (the paper: every velocity negated at the top and bottom)
+    reversal: str = field(default="smooth", metadata={"choices": ("smooth", "negate")})
+    #: "smooth": the stroke and the fluke angle ramp in from rest over this many cycles
+    ramp_cycles: float = field(default=1.0, metadata={"check": lambda v: 0 <= v <= 10})
+    #: "smooth": natural frequency of the critically damped tether that holds every moving
+    #: node near its target, in multiples of frequency_hz (0: no tether)
+    tether: float = field(default=4.0, metadata={"check": _non_negative})
 
 
 @dataclass(frozen=True)

@@ -110,6 +110,11 @@ class SpringNetwork:
         return _edge_forces(X, V, self.i, self.j, self.rest, self._k_on_i, self._k_on_j,
                             self.mu, self.nu, out)
 
+    def damping_force(self, V: np.ndarray) -> np.ndarray:
+        """The velocity part of the force alone: mu (V_j - V_i) summed over the edges, minus
+        nu V_i (linear in V; V may be (N,) for one component)."""
+        return self._damping @ V
+
     def forces_numpy(self, X: np.ndarray, V: np.ndarray) -> np.ndarray:
         """The same law as :meth:`forces`, as sparse matrix products (the reference)."""
         d = X[self.j] - X[self.i]

@@ -20,3 +20,11 @@ def smoke_surface(smoke_scene):
 @pytest.fixture()
 def smoke_animator(smoke_scene, smoke_surface):
     return Animator(smoke_scene, smoke_surface)
+
+
+@pytest.fixture()
+def paper_animator(smoke_scene, smoke_surface):
+    """The paper's stroke: velocities negated at the top and bottom, the 15 deg table."""
+    scene = smoke_scene.replace(stroke={"reversal": "negate", "fluke_table": "quadrature15",
+                                        "velocity_scale": 0.94462})
+    return Animator(scene, smoke_surface)

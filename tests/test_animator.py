@@ -43,8 +43,8 @@ def test_checkpoint_restore_is_exact(smoke_animator):
     np.testing.assert_array_equal(a.displacement(0.0), np.zeros_like(later))
 
 
-def test_stroke_events(smoke_animator):
-    a = smoke_animator
+def test_stroke_events(paper_animator):
+    a = paper_animator
     n = a.steps_per_quarter
     dyn = a.dynamic
     np.testing.assert_allclose(a.V[dyn, 2], a.profile[dyn])  # upward profile at t = 0
@@ -68,14 +68,14 @@ def test_profile_has_head_and_tail_with_flipper_region_against_them(smoke_animat
     assert np.all(v[a.fluke] == 0)  # the fluke is the gate's, not the springs'
 
 
-def test_fluke_follows_the_table(smoke_scene, smoke_animator):
-    a = smoke_animator
-    table = load_fluke_table("default")
+def test_fluke_follows_the_table(smoke_scene, paper_animator):
+    a = paper_animator
+    table = load_fluke_table("quadrature15")
     T = smoke_scene.period_s
     for t in (0.4 * T, 0.77 * T, 1.31 * T):  # past the start-up ramp (0.25 T)
         t = round(t / a.dt) * a.dt  # on an internal step (between steps: interpolated)
         X = a.positions(t)
-        hinge = X[a._hinge_nodes].mean(axis=0)
+        hinge = X[a.hinge_nodes].mean(axis=0)
         expected = hinge + (a.rest[a.fluke] - a.hinge0) @ rotation_y(table(t / T)).T
         np.testing.assert_allclose(X[a.fluke], expected, atol=1e-9)
         # the angle of the tip, read back from the geometry, is the table's

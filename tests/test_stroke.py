@@ -1,0 +1,115 @@
+"""The smooth stroke (the default for coupled runs): continuous wall velocity, symmetric, periodic,
+feathering flukes. Truths from outside the code: the closed-form target D(t) = r sin(wt) / w,
+finite differences of the served positions, and the figures the issue asks for."""
+
+import math
+
+import numpy as np
+import pytest
+
+from adapter import dryrun
+from adapter.animator import Animator
+from adapter.gait import load_fluke_table
+
+
+def _quintic(x):
+    x = min(max(x, 0.0), 1.0)
+    return x**3 * (10 - 15 * x + 6 * x * x)
+
+
+def test_without_springs_the_body_follows_the_closed_form_target(smoke_scene, smoke_surface):
+    """Springs off: every moving node is where profile * r(t) sin(w t) / w puts it (but for
+    the nodes next to the pitching fluke gate, which the damping between nodes drags)."""
+    scene = smoke_scene.replace(springs={"stiffness_scale": 1e-9})
+    a = Animator(scene, smoke_surface)
+    away = a.dynamic & (a.surface.s < a.tail_base_s - 0.05)
+    T, w = a.period, 2 * math.pi / a.period
+    for t in (0.3 * T, 0.9 * T, 1.25 * T, 1.6 * T):
+        t = round(t / a.dt) * a.dt
+        d = a.displacement(t)
+        expected = a.profile * _quintic(t / T) * math.sin(w * t) / w
+        # forward Euler's own error is O(dt): here 15 ms steps (no springs to resolve)
+        np.testing.assert_allclose(d[away, 2], expected[away], rtol=0.01, atol=2e-3)
+        np.testing.assert_allclose(d[away, :2], 0, atol=2e-3)
+
+
+def test_wall_velocity_is_continuous_at_the_start_and_every_reversal(smoke_animator,
+                                                                     paper_animator):
+    """Largest velocity change of any node between two internal steps, around the start and
+    the top and bottom of the stroke: O(dt) for the smooth stroke, a jump for the paper's."""
+    def largest_jump(a, t):
+        n = round(t / a.dt)
+        a._advance(max(n - 2, 0))
+        jumps = []
+        for k in range(max(n - 1, 1), n + 3):
+            v0 = a.V[a.dynamic].copy()
+            a._advance(k)
+            jumps.append(np.abs(a.V[a.dynamic] - v0).max())
+        return max(jumps)
+
+    T = smoke_animator.period
+    for t in (0.0, 1.25 * T, 1.75 * T):
+        smooth = largest_jump(smoke_animator, t)
+        assert smooth < 0.01, (t, smooth)  # m/s per 0.6 ms step
+    paper = largest_jump(paper_animator, 0.25 * T)
+    assert paper > 0.5  # the paper's negation: an instantaneous reversal
+
+
+def test_served_velocity_is_the_derivative_of_the_served_position(smoke_animator):
+    """Fluke and body: the velocity handed out equals the finite difference of positions."""
+    a = smoke_animator
+    T = a.period
+    for t in (0.55 * T, 1.3 * T):
+        n = round(t / a.dt)
+        t0, t1 = (n - 1) * a.dt, (n + 1) * a.dt
+        x0 = a.positions(t0)
+        v = a.velocity(n * a.dt)
+        x1 = a.positions(t1)
+        fd = (x1 - x0) / (t1 - t0)
+        np.testing.assert_allclose(v[a.fluke], fd[a.fluke], atol=1e-3)
+        np.testing.assert_allclose(v[a.dynamic], fd[a.dynamic], atol=1e-2)
+
+
+def test_fluke_pitch_is_a_smooth_spline_through_the_table(smoke_animator):
+    a = smoke_animator
+    table = load_fluke_table("default", spline=True)
+    T = a.period
+    for phase in np.linspace(0, 1, 31)[:-1]:
+        # through every row of the table: -28 cos(2 pi phase) degrees (the file's formula)
+        assert math.degrees(table(phase)) == pytest.approx(-28 * math.cos(2 * math.pi * phase),
+                                                           abs=1e-3)
+    # the rate is the derivative of the angle (central difference)
+    for phase in (0.13, 0.41, 0.77):
+        h = 1e-6
+        fd = (table(phase + h) - table(phase - h)) / (2 * h)
+        assert table.rate(phase) == pytest.approx(fd, rel=1e-5, abs=1e-9)
+    # after the ramp, the gate's angle is the table's
+    t = 1.3 * T
+    assert a.fluke_angle(t)[0] == pytest.approx(table(t / T), abs=1e-12)
+
+
+@pytest.fixture(scope="module")
+def smooth_summary(tmp_path_factory):
+    from adapter.scene import load_scene
+
+    scene = load_scene(preset="smoke")
+    return dryrun.run(scene, tmp_path_factory.mktemp("smooth"), cycles=3, progress=False,
+                      write_files=False)
+
+
+def test_smooth_stroke_is_symmetric_periodic_and_feathers(smooth_summary):
+    s = smooth_summary
+    target = s["fluke_tip_target_m"]
+    assert s["stroke_reversal"] == "smooth"
+    # up and down tail-base amplitudes within 2 %
+    assert s["tail_base_up_m"] == pytest.approx(s["tail_base_down_m"], rel=0.02)
+    # closure: every node back where it was one cycle before, to 1 % of the fluke amplitude
+    assert s["closure_error_m"] < 0.01 * target
+    # the start-up cycle does not close (it ramps in): the figure is not vacuous
+    assert s["closure_error_per_cycle_m"][0] > 0.1 * target
+    # feathering: the angle of attack passes near zero at the top and bottom, peaks under 20
+    aoa = s["fluke_aoa_deg"]
+    assert abs(aoa["at_top"]) < 3 and abs(aoa["at_bottom"]) < 3
+    assert 5 < aoa["max_abs"] < 20
+    assert abs(s["fluke_tip_error"]) < 0.05
+    assert s["measured_period_s"] == pytest.approx(s["period_s"], rel=0.02)
