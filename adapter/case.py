@@ -246,8 +246,20 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     pts = np.asarray(surface.points)
     params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks)
     _write_dictionaries(case, scene, params, static_whale)
+    from .loads import body_dimensions
+
+    tail_base_s = float(surface.s[surface.landmarks["tail_base"]])
+    st = scene.stroke
+    ramp = (st.ramp_cycles if st.reversal == "smooth" else st.fluke_ramp) * scene.period_s
     record = {
         "scene_file": str(Path(scene_file).resolve()) if scene_file else None,
+        # the start-up discarded from the figures: the ramp, at least one cycle
+        "ramp_s": max(ramp, scene.period_s),
+        "rho_kg_m3": scene.flow.rho_kg_m3,
+        "nu_m2_s": scene.flow.nu_m2_s,
+        "body": body_dimensions(surface, tail_base_s),
+        "gliding": scene.case.gliding,
+        "periodic_tolerance": scene.case.periodic_tolerance,
         "preset": scene.name,
         "static_whale": static_whale,
         "length_m": scene.geometry.length_m,
@@ -281,10 +293,15 @@ def _write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool
     d.writeFile()
 
     d = _parsed(case / "system" / "controlDict")
-    if static_whale:
+    lib = f'"{_plugin_lib()}"'
+    if static_whale and not _plugin_lib().is_file():
+        # a flow-only case without the plugin library: no loads function object either
         del d["libs"]
+        del d["functions"]["loads"]
     else:
-        d["libs"] = [f'"{_plugin_lib()}"']
+        d["libs"] = [lib]
+        d["functions"]["loads"]["libs"] = [lib]
+        d["functions"]["loads"]["rhoInf"] = scene.flow.rho_kg_m3
     d["endTime"] = p.end_time
     d["deltaT"] = p.delta_t
     d["timePrecision"] = p.time_precision
@@ -624,12 +641,18 @@ def _stop_server(proc: subprocess.Popen | None, grace: float = 15.0) -> None:
         log.close()
 
 
-def run_case(case_dir, *, ranks: int | None = None, progress: bool = True) -> dict:
+def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
+             stop_when=None) -> dict:
     """Run pimpleFoam on a prepared case with the step-server, and summarise the run.
 
     Meshes the case first when it has no mesh. Serial for one rank, otherwise decomposePar,
     ``mpirun -np N pimpleFoam -parallel`` and reconstructPar. A case that has written times
     continues from the latest (controlDict ``startFrom latestTime``).
+
+    A run that starts from time 0 starts from potential flow (``potentialFoam -writep``) rather
+    than from rest: no impulsive start. ``stop_when(case) -> str | None`` is asked every few
+    seconds while the solver runs; a reason ends the run (written) as the mesh watch does, and
+    is recorded as ``stopped_because`` (not an error).
 
     Returns the summary also written to ``<case>/adapter-summary.json``. Raises
     :class:`~adapter.errors.SolverRunError` naming the log when pimpleFoam fails, or when the
@@ -655,6 +678,8 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True) -> di
                              "it with scripts/build_plugin.sh")
     start_time = _time_dirs(case)[-1][0] if _time_dirs(case) else 0.0
     end_time = float(_parsed(case / "system" / "controlDict")["endTime"])
+    if start_time == 0.0:
+        run_utility(case, ["potentialFoam", "-writep"])
     solver = ["pimpleFoam", "-debug-switch", "polyMesh=1",
               "-opt-switch", f"stopAtWriteNowSignal={int(_STOP_SIGNAL)}"]
     server = None
@@ -672,7 +697,8 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True) -> di
         if not static:
             server = _start_server(case, record)
         t_flow = time.perf_counter()
-        rc, stopped = _run_watched(case, cmd, watch, record, start_time, end_time, progress)
+        rc, stopped = _run_watched(case, cmd, watch, record, start_time, end_time, progress,
+                                   stop_when)
         flow_wall = time.perf_counter() - t_flow
     finally:
         _stop_server(server)
@@ -684,6 +710,9 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True) -> di
         run_utility(case, ["reconstructPar", "-newTimes"])
     (case / "case.foam").touch()
     summary = summarise(case, watch, record, ranks, flow_wall, time.perf_counter() - t_start)
+    if stopped and not stopped.startswith("mesh watch"):
+        summary["stopped_because"] = stopped
+        stopped = None
     if stopped:
         summary["stopped"] = stopped
     _write_json(case / SUMMARY, summary)
@@ -693,11 +722,13 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True) -> di
     return summary
 
 
-def _run_watched(case, cmd, watch, record, start_time, end_time, progress):
-    """Run the solver, follow its log; stop it (write now) when the mesh gets too distorted."""
+def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_when=None):
+    """Run the solver, follow its log; stop it (write now) when the mesh gets too distorted,
+    or when ``stop_when(case)`` gives a reason."""
     limit = float(record.get("max_non_orthogonality", 80.0))
     show = _Progress(end_time, start_time) if progress else None
     stopped = None
+    asked = time.perf_counter()
     with open(case / "log.pimpleFoam", "w") as log:
         proc = subprocess.Popen(cmd, cwd=case, stdout=log, stderr=subprocess.STDOUT,
                                 env=foam_env(), start_new_session=True)
@@ -712,6 +743,11 @@ def _run_watched(case, cmd, watch, record, start_time, end_time, progress):
                         what = f"the moved mesh is invalid ({watch.broken})"
                     stopped = f"mesh watch: {what}"
                     proc.send_signal(_STOP_SIGNAL)
+                if stopped is None and stop_when and time.perf_counter() - asked > 3.0:
+                    asked = time.perf_counter()
+                    stopped = stop_when(case)
+                    if stopped:
+                        proc.send_signal(_STOP_SIGNAL)
                 if show:
                     show.show(watch)
                 if rc is not None:
@@ -849,6 +885,16 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
               f"{info.get('max_non_orthogonality')} deg, {info['mesh_s']} s")
         if args.mesh_only:
             return 0
+    record = read_record(case)
+    if record.get("gliding", False) and not record.get("static_whale"):
+        from .swimrun import format_table, run_swim_and_glide
+
+        summary = run_swim_and_glide(case, record, float(record["periodic_tolerance"]),
+                                     ranks=args.ranks)
+        print(f"\n{case}: what swimming costs the whale ({case / SUMMARY}, "
+              f"{case / 'forces.png'})")
+        print(format_table(summary))
+        return 0
     summary = run_case(case, ranks=args.ranks)
     print(json.dumps(summary, indent=2))
     return 0

@@ -64,3 +64,31 @@ def render_frames(surf, states: dict, path: Path, size=(1800, 820)) -> None:
                     tuple(centre), (0, 0, 1)]
     plotter.screenshot(str(path))
     plotter.close()
+
+
+def plot_forces(swim: dict, glide: dict, period: float, start_up: float, path: Path) -> None:
+    """forces.png: Fx, Fz and power of the swimming whale against time (loads.dat columns),
+    the gliding drag beside them, stroke cycles marked and the discarded start-up greyed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = swim["Time"]
+    fig, axes = plt.subplots(3, 1, figsize=(9, 7.5), dpi=110, sharex=True)
+    rows = (("total:Fx", "Fx (N)"), ("total:Fz", "Fz (N)"), ("total:P", "power into water (W)"))
+    for ax, (key, label) in zip(axes, rows, strict=True):
+        ax.plot(t, swim[key], lw=1.2, color="C0", label="swimming")
+        if glide and key != "total:P":
+            ax.plot(glide["Time"], glide[key], lw=1.0, color="C1", ls="--", label="gliding")
+        ax.axvspan(0, start_up, color="0.88", zorder=0)
+        for c in np.arange(start_up, t[-1] + 1e-9, period):
+            ax.axvline(c, color="0.6", lw=0.8, zorder=0)
+        ax.axhline(0, color="0.7", lw=0.6)
+        ax.set_ylabel(label)
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[0].set_title("Loads on the whale (grey: start-up, discarded; lines: stroke cycles)")
+    axes[-1].set_xlabel("time (s)")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)

@@ -175,6 +175,10 @@ class Case:
     writes_per_cycle: int = field(default=4, metadata={"check": lambda v: v >= 1})
     turbulence: str = field(default="kOmegaSST", metadata={"choices": ("kOmegaSST", "laminar")})
     ranks: int = field(default=1, metadata={"check": lambda v: v >= 1})
+    #: run-case also runs the whale gliding (same mesh, no stroke) for the drag baseline
+    gliding: bool = True
+    #: periodic state: cycle-to-cycle change of mean Fx (of the gliding drag) and mean power
+    periodic_tolerance: float = field(default=0.02, metadata={"check": _positive})
     #: stop before cells invert: largest non-orthogonality (deg) allowed
     max_non_orthogonality: float = field(default=80.0, metadata={"check": lambda v: 0 < v < 90})
 

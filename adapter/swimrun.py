@@ -1,0 +1,215 @@
+"""run-case's two runs on one mesh, and the answer: what swimming costs the whale.
+
+1. **Gliding** (``<case>/gliding/``): the same whale on the same mesh, not moving
+   (staticFvMesh), from potential flow, until the mean drag over a stroke period changes by
+   less than ``case.periodic_tolerance`` from one period to the next.
+2. **Swimming** (``<case>/``): the coupled run, from potential flow, the stroke ramping in over
+   its first ``stroke.ramp_cycles`` (the start-up, discarded), until the cycle-mean Fx (against
+   the gliding drag) and the cycle-mean power each change by less than the tolerance between
+   the last two cycles; at most ``case.cycles`` cycles.
+
+From the loads of both (adapter/loads.py): mean drag gliding, mean Fx and power swimming,
+Froude efficiency and cost of transport, with the spike checks and van der Hoop et al.'s
+reference drag. Written into ``<case>/adapter-summary.json`` under ``"swimming_cost"`` and
+drawn in ``<case>/forces.png``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from pathlib import Path
+
+from . import loads as ld
+from .case import SUMMARY, _parsed, _write_json, read_record, run_case
+from .errors import AdapterError
+
+GLIDING = "gliding"
+
+
+def prepare_gliding(case: Path) -> Path:
+    """``<case>/gliding``: a copy of the prepared, meshed case with the whale held still
+    (pointDisplacement fixed, staticFvMesh, no step-server); kept when it exists."""
+    glide = case / GLIDING
+    if (glide / "system" / "controlDict").exists():
+        return glide
+    glide.mkdir()
+    for name in ("system", "constant", "0.orig"):
+        shutil.copytree(case / name, glide / name)
+    shutil.copytree(case / "0.orig", glide / "0")
+    record = read_record(case)
+    record["static_whale"] = True
+    _write_json(glide / "adapter-case.json", record)
+    for zero in ("0", "0.orig"):
+        d = _parsed(glide / zero / "pointDisplacement")
+        d["boundaryField"]["whale"] = {"type": "fixedValue", "value": "uniform (0 0 0)"}
+        d.writeFile()
+    d = _parsed(glide / "constant" / "dynamicMeshDict")
+    d["dynamicFvMesh"] = "staticFvMesh"
+    d.writeFile()
+    return glide
+
+
+def _stats(case: Path, period: float, start_up: float) -> ld.CycleStats | None:
+    data = ld.read_loads(case)
+    if not data:
+        return None
+    return ld.cycle_stats(data["Time"], data["total:Fx"], data["total:P"], period, start_up)
+
+
+def run_swim_and_glide(case: Path, scene_record: dict, tolerance: float, ranks=None,
+                       progress: bool = True) -> dict:
+    """Run gliding then swimming (each resumed if it was stopped); the answer."""
+    period = float(scene_record["period_s"])
+    ramp = float(scene_record.get("ramp_s", period))
+    glide = prepare_gliding(case)
+
+    def glide_steady(c):
+        st = _stats(c, period, period)
+        if st is not None and len(st.starts) >= 2 and ld.is_periodic(
+                st, st.mean_fx[-1], tolerance):
+            return (f"steady: mean drag changed {ld.periodic_change(st, st.mean_fx[-1])[0]:.2%}"
+                    " over the last stroke period")
+        return None
+
+    g_summary = run_case(glide, ranks=ranks, progress=progress, stop_when=glide_steady)
+    g_stats = _stats(glide, period, period)
+    if g_stats is None or not len(g_stats.starts):
+        raise AdapterError(f"the gliding run {glide} wrote no complete stroke period of loads; "
+                           "raise case.cycles")
+    drag = float(g_stats.mean_fx[-1])
+
+    def swim_periodic(c):
+        st = _stats(c, period, ramp)
+        if st is not None and len(st.starts) >= 2 and ld.is_periodic(st, drag, tolerance):
+            dfx, dp = ld.periodic_change(st, drag)
+            return (f"periodic: cycle mean Fx changed {dfx:.2%} of the gliding drag, mean power"
+                    f" {dp:.2%}, over the last two cycles")
+        return None
+
+    s_summary = run_case(case, ranks=ranks, progress=progress, stop_when=swim_periodic)
+    return answer(case, glide, scene_record, drag, tolerance, s_summary, g_summary)
+
+
+def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
+           s_summary: dict, g_summary: dict) -> dict:
+    """The figures, into adapter-summary.json (``swimming_cost``) and forces.png."""
+    period = float(rec["period_s"])
+    ramp = float(rec.get("ramp_s", period))
+    data = ld.read_loads(case)
+    st = ld.cycle_stats(data["Time"], data["total:Fx"], data["total:P"], period, ramp)
+    if not len(st.starts):
+        raise AdapterError(f"{case}: no complete stroke cycle after the start-up; raise "
+                           "case.cycles")
+    dfx, dp = ld.periodic_change(st, drag)
+    window = (st.starts[-1], st.starts[-1] + period)
+    t = data["Time"]
+    spikes = ld.spike_figures(t, data["total:Fx"], data["total:Fy"], data["total:Fz"],
+                              data["total:P"], window)
+    body = rec.get("body", {})
+    speed = float(rec["speed_m_s"])
+    mass = ld.BODY_DENSITY * float(body.get("volume_m3", float("nan")))
+    cost = ld.cost_figures(drag, float(st.mean_fx[-1]), float(st.mean_power[-1]), speed, mass)
+    ref = ld.van_der_hoop_drag(speed, float(body.get("length_m", rec["length_m"])),
+                               float(body.get("diameter_m", float("nan"))),
+                               float(body.get("wetted_area_m2", float("nan"))),
+                               float(rec.get("rho_kg_m3", 1025.0)),
+                               float(rec.get("nu_m2_s", 1e-6)))
+    gd = ld.read_loads(glide)
+    result = {
+        "gliding_drag_N": drag,
+        "gliding_drag_pressure_N": _last_mean(gd, "total:Fpx", period),
+        "gliding_drag_viscous_N": _last_mean(gd, "total:Fvx", period),
+        "swimming_mean_fx_N": float(st.mean_fx[-1]),
+        "swimming_mean_power_W": float(st.mean_power[-1]),
+        **cost,
+        "cycles_measured": int(len(st.starts)),
+        "start_up_s": ramp,
+        "cycle_means": {"start_s": st.starts.tolist(), "fx_N": st.mean_fx.tolist(),
+                        "power_W": st.mean_power.tolist()},
+        "periodic_change": {"fx_of_gliding_drag": dfx, "power": dp, "tolerance": tolerance,
+                            "reached": bool(dfx < tolerance and dp < tolerance)},
+        "spikes": {**spikes,
+                   "drop_1pct_fx_of_gliding_drag": spikes["drop_1pct_fx_N"] / abs(drag),
+                   "drop_1pct_power": spikes["drop_1pct_power_W"]
+                   / abs(st.mean_power[-1])},
+        "van_der_hoop": ref,
+        "gliding_vs_van_der_hoop": drag / ref["drag_N"] - 1.0,
+        "gliding_run": {k: g_summary.get(k) for k in ("steps", "flow_wall_s", "end_time_s",
+                                                      "stopped_because")},
+    }
+    summary = dict(s_summary)
+    summary["swimming_cost"] = _finite(result)
+    _write_json(case / SUMMARY, summary)
+    from .render import plot_forces
+
+    plot_forces(data, gd, period, ramp, case / "forces.png")
+    return summary
+
+
+def _last_mean(data: dict, key: str, period: float) -> float:
+    if not data:
+        return float("nan")
+    t = data["Time"]
+    sel = t > t[-1] - period
+    return float(data[key][sel].mean())
+
+
+def _finite(obj):
+    """NaN and infinities as None (JSON has no NaN)."""
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+#: the table run-case prints: (label, path in the summary, format)
+TABLE = (
+    ("gliding drag", "swimming_cost.gliding_drag_N", "{:.0f} N"),
+    ("  pressure / viscous", ("swimming_cost.gliding_drag_pressure_N",
+                              "swimming_cost.gliding_drag_viscous_N"), "{:.0f} / {:.0f} N"),
+    ("van der Hoop et al. model", "swimming_cost.van_der_hoop.drag_N", "{:.0f} N"),
+    ("swimming: mean Fx", "swimming_cost.swimming_mean_fx_N", "{:.0f} N"),
+    ("swimming: mean power into the water", "swimming_cost.swimming_mean_power_W", "{:.0f} W"),
+    ("Froude efficiency", "swimming_cost.froude_efficiency", "{:.2f}"),
+    ("cost of transport", "swimming_cost.cost_of_transport_J_kg_m", "{:.3g} J/(kg m)"),
+    ("mass (enclosed volume x 1025 kg/m3)", "swimming_cost.mass_kg", "{:.0f} kg"),
+    ("cycles measured after the start-up", "swimming_cost.cycles_measured", "{}"),
+    ("periodic (change of Fx, power)", ("swimming_cost.periodic_change.fx_of_gliding_drag",
+                                        "swimming_cost.periodic_change.power"),
+     "{:.1%}, {:.1%}"),
+    ("largest step |F| / RMS", "swimming_cost.spikes.max_force_over_rms", "{:.2f}"),
+    ("cells", "cells", "{}"),
+    ("steps, s per step", ("steps", "step_s"), "{}, {:.2f}"),
+    ("pimpleFoam wall time (swimming)", "flow_wall_s", "{:.0f} s"),
+)
+
+
+def _get(summary: dict, path: str):
+    v = summary
+    for part in path.split("."):
+        if not isinstance(v, dict) or part not in v:
+            return None
+        v = v[part]
+    return v
+
+
+def format_table(summary: dict) -> str:
+    """The summary as a short two-column table (rows with no value are left out)."""
+    lines = []
+    for label, paths, fmt in TABLE:
+        paths = paths if isinstance(paths, tuple) else (paths,)
+        values = [_get(summary, p) for p in paths]
+        if any(v is None for v in values):
+            continue
+        lines.append(f"  {label:<40} {fmt.format(*values)}")
+    return "\n".join(lines)
+
+
+def main_summary_text(case: Path) -> str:
+    summary = json.loads((case / SUMMARY).read_text())
+    return format_table(summary)
