@@ -15,10 +15,9 @@
 #include "Time.H"
 #include "polyMesh.H"
 #include "fvMesh.H"
-#include "volFields.H"
 #include "pointFields.H"
 #include "points0MotionSolver.H"
-#include "turbulentTransportModel.H"
+#include "patchLoads.H"
 
 #include <chrono>
 #include <iomanip>
@@ -199,29 +198,17 @@ void stepServerDisplacementPointPatchVectorField::patchForces
     {
         return;
     }
-    const vectorField& Sf = mesh.Sf().boundaryField()[patchi];
 
-    scalar rho = rhoInf_;
-    if (mesh.foundObject<volScalarField>("p"))
+    // Collective (grad(U) across processor patches): every rank gets
+    // here at every update, whatever its share of the patch
+    const patchLoads loads(mesh, rhoInf_);
+    if (loads.hasPressure())
     {
-        const volScalarField& p = mesh.lookupObject<volScalarField>("p");
-        if (p.dimensions() == dimPressure)
-        {
-            rho = 1;
-        }
-        fp = rho*sum(p.boundaryField()[patchi]*Sf);
+        fp = sum(loads.pressure(patchi));
     }
-
-    typedef incompressible::turbulenceModel icoTurbModel;
-    if (mesh.foundObject<icoTurbModel>(icoTurbModel::propertiesName))
+    if (loads.hasViscous())
     {
-        const icoTurbModel& turb =
-            mesh.lookupObject<icoTurbModel>(icoTurbModel::propertiesName);
-
-        // Collective (grad(U) across processor patches): every rank gets
-        // here at every update, whatever its share of the patch
-        tmp<volSymmTensorField> tdevReff = turb.devReff();
-        fv = rhoInf_*sum(Sf & tdevReff().boundaryField()[patchi]);
+        fv = sum(loads.viscous(patchi));
     }
 }
 

@@ -1,0 +1,269 @@
+/*---------------------------------------------------------------------------*\
+  =========                 |
+  \\      /  F ield         | OpenFOAM: The Open Source CFD Toolbox
+   \\    /   O peration     |
+    \\  /    A nd           | www.openfoam.com
+     \\/     M anipulation  |
+-------------------------------------------------------------------------------
+    Shape copied from OpenFOAM's functionObjects::forces,
+    Copyright (C) 2011-2016 OpenFOAM Foundation,
+    Copyright (C) 2015-2020 OpenCFD Ltd., GPL-3.0-or-later.
+\*---------------------------------------------------------------------------*/
+
+#include "whaleLoads.H"
+#include "patchLoads.H"
+#include "volFields.H"
+#include "surfaceFields.H"
+#include "addToRunTimeSelectionTable.H"
+
+// * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * * //
+
+namespace Foam
+{
+namespace functionObjects
+{
+    defineTypeNameAndDebug(whaleLoads, 0);
+    addToRunTimeSelectionTable(functionObject, whaleLoads, dictionary);
+}
+}
+
+
+namespace
+{
+    // Layout of the values of one patch, as summed over the ranks
+    enum : Foam::label { FP = 0, FV = 3, PP = 6, PV = 7, AREA = 8, NVALUES = 9 };
+
+    // The columns of one group in loads.dat
+    const char* const columns[] =
+    {
+        "Fx", "Fy", "Fz", "Fpx", "Fpy", "Fpz", "Fvx", "Fvy", "Fvz",
+        "P", "Pp", "Pv", "A"
+    };
+
+    Foam::vector vectorAt(const Foam::scalarField& v, const Foam::label i)
+    {
+        return Foam::vector(v[i], v[i + 1], v[i + 2]);
+    }
+}
+
+
+// * * * * * * * * * * * * Private Member Functions  * * * * * * * * * * * * //
+
+Foam::List<Foam::scalarField>
+Foam::functionObjects::whaleLoads::calcLoads() const
+{
+    // Collective (devReff: grad(U) across processor patches)
+    const patchLoads loads(mesh_, rhoInf_, pName_);
+    const volVectorField* UPtr = mesh_.findObject<volVectorField>(UName_);
+
+    if (!loads.hasPressure() || !UPtr)
+    {
+        FatalErrorInFunction
+            << type() << " " << name() << ": no field " << pName_
+            << " or " << UName_ << " in the database" << exit(FatalError);
+    }
+    if (!loads.hasViscous())
+    {
+        FatalErrorInFunction
+            << type() << " " << name() << ": no incompressible turbulence"
+            << " model (laminar included) for the viscous force"
+            << exit(FatalError);
+    }
+
+    List<scalarField> values(patchIDs_.size(), scalarField(NVALUES, Zero));
+
+    forAll(patchIDs_, i)
+    {
+        const label patchi = patchIDs_[i];
+        const vectorField fp(loads.pressure(patchi));
+        const vectorField fv(loads.viscous(patchi));
+        const vectorField& Ub = UPtr->boundaryField()[patchi];
+
+        const vector Fp(sum(fp));
+        const vector Fv(sum(fv));
+        scalarField& v = values[i];
+        for (direction d = 0; d < vector::nComponents; ++d)
+        {
+            v[FP + d] = Fp[d];
+            v[FV + d] = Fv[d];
+        }
+
+        // Face-wise: the fluid's force on the face times the face velocity,
+        // negated: the power the body delivers to the fluid
+        v[PP] = -sum(fp & Ub);
+        v[PV] = -sum(fv & Ub);
+        v[AREA] = sum(mesh_.magSf().boundaryField()[patchi]);
+    }
+
+    Pstream::listCombineGather(values, plusEqOp<scalarField>());
+    Pstream::listCombineScatter(values);
+
+    return values;
+}
+
+
+void Foam::functionObjects::whaleLoads::createFile()
+{
+    if (!writeToFile() || filePtr_.valid())
+    {
+        return;
+    }
+
+    filePtr_ = writeFile::createFile("loads");
+    OFstream& os = filePtr_();
+
+    writeHeader(os, "Loads on the whale patches (N, W, m2)");
+    writeHeader(os, "F = Fp + Fv: force of the fluid on the patch");
+    writeHeader(os, "P = Pp + Pv = -sum(F_f & U_f): power into the fluid");
+    writeCommented(os, "Time");
+
+    wordList groups(1, word("total"));
+    for (const label patchi : patchIDs_)
+    {
+        groups.append(mesh_.boundaryMesh()[patchi].name());
+    }
+    for (const word& group : groups)
+    {
+        for (const char* col : columns)
+        {
+            writeTabbed(os, group + ":" + col);
+        }
+    }
+    os  << endl;
+}
+
+
+void Foam::functionObjects::whaleLoads::writeGroup
+(
+    const word& group,
+    const scalarField& v
+)
+{
+    const vector Fp(vectorAt(v, FP));
+    const vector Fv(vectorAt(v, FV));
+    const vector F(Fp + Fv);
+    const scalar P = v[PP] + v[PV];
+
+    Log << type() << " " << name() << ": " << group << " F " << F << " N (pressure " << Fp
+        << ", viscous " << Fv << "), P " << P << " W (pressure " << v[PP]
+        << ", viscous " << v[PV] << "), A " << v[AREA] << " m2" << endl;
+
+    if (filePtr_.valid())
+    {
+        OFstream& os = filePtr_();
+        const scalar row[] =
+        {
+            F.x(), F.y(), F.z(), Fp.x(), Fp.y(), Fp.z(),
+            Fv.x(), Fv.y(), Fv.z(), P, v[PP], v[PV], v[AREA]
+        };
+        for (const scalar x : row)
+        {
+            os  << tab << x;
+        }
+    }
+}
+
+
+// * * * * * * * * * * * * * * * * Constructors  * * * * * * * * * * * * * * //
+
+Foam::functionObjects::whaleLoads::whaleLoads
+(
+    const word& name,
+    const Time& runTime,
+    const dictionary& dict
+)
+:
+    fvMeshFunctionObject(name, runTime, dict),
+    writeFile(mesh_, name),
+    patchIDs_(),
+    rhoInf_(1025),
+    pName_("p"),
+    UName_("U"),
+    filePtr_()
+{
+    read(dict);
+}
+
+
+// * * * * * * * * * * * * * * * Member Functions  * * * * * * * * * * * * * //
+
+bool Foam::functionObjects::whaleLoads::read(const dictionary& dict)
+{
+    fvMeshFunctionObject::read(dict);
+    writeFile::read(dict);
+
+    const wordRes patchNames(dict.get<wordRes>("patches"));
+    patchIDs_ = mesh_.boundaryMesh().patchSet(patchNames).sortedToc();
+    if (patchIDs_.empty())
+    {
+        FatalIOErrorInFunction(dict)
+            << type() << " " << name() << ": patches " << patchNames
+            << " select no patch; the patches are "
+            << mesh_.boundaryMesh().names() << exit(FatalIOError);
+    }
+
+    rhoInf_ = dict.getOrDefault<scalar>("rhoInf", 1025);
+    if (!(rhoInf_ > 0))
+    {
+        FatalIOErrorInFunction(dict)
+            << type() << " " << name() << ": rhoInf " << rhoInf_
+            << " must be > 0 (kg/m3)" << exit(FatalIOError);
+    }
+    pName_ = dict.getOrDefault<word>("p", "p");
+    UName_ = dict.getOrDefault<word>("U", "U");
+
+    Info<< type() << " " << name() << ": patches";
+    for (const label patchi : patchIDs_)
+    {
+        Info<< " " << mesh_.boundaryMesh()[patchi].name();
+    }
+    Info<< ", rhoInf " << rhoInf_ << endl;
+
+    return true;
+}
+
+
+bool Foam::functionObjects::whaleLoads::execute()
+{
+    const List<scalarField> values(calcLoads());
+
+    scalarField total(NVALUES, Zero);
+    for (const scalarField& v : values)
+    {
+        total += v;
+    }
+
+    if (Pstream::master())
+    {
+        createFile();
+        if (filePtr_.valid())
+        {
+            writeCurrentTime(filePtr_());
+        }
+    }
+
+    writeGroup("total", total);
+    forAll(patchIDs_, i)
+    {
+        writeGroup(mesh_.boundaryMesh()[patchIDs_[i]].name(), values[i]);
+    }
+
+    if (filePtr_.valid())
+    {
+        filePtr_() << endl;
+    }
+
+    setResult("power", total[PP] + total[PV]);
+    setResult("force", vectorAt(total, FP) + vectorAt(total, FV));
+
+    return true;
+}
+
+
+bool Foam::functionObjects::whaleLoads::write()
+{
+    return true;
+}
+
+
+// ************************************************************************* //
