@@ -85,6 +85,7 @@ class CaseParameters:
     near_box_min, near_box_max : (3,) the refinement box around the whale (m).
     k_inlet, omega_inlet : inflow turbulence (m2/s2, 1/s).
     ranks : MPI ranks (1 is serial).
+    inflow_ramp_s : the inflow ramps from still water to the scene's speed over this (s).
     """
 
     domain_min: tuple
@@ -103,6 +104,7 @@ class CaseParameters:
     k_inlet: float
     omega_inlet: float
     ranks: int
+    inflow_ramp_s: float = 0.0
 
 
 def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None) -> CaseParameters:
@@ -168,6 +170,7 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None) -> 
         k_inlet=k,
         omega_inlet=omega,
         ranks=int(ranks if ranks is not None else c.ranks),
+        inflow_ramp_s=c.inflow_ramp_cycles * scene.period_s,
     )
 
 
@@ -334,6 +337,14 @@ def _write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool
     zero = case / "0.orig"
     d = _parsed(zero / "U")
     d["Uinlet"] = _vector((scene.flow.speed_m_s, 0.0, 0.0))
+    if p.inflow_ramp_s > 0:
+        # still water, the inflow ramped in smoothly: no impulsive start
+        d["internalField"] = "uniform (0 0 0)"
+        d["boundaryField"]["inlet"] = {
+            "type": "uniformFixedValue",
+            "uniformValue": "table " + inflow_ramp_table(scene.flow.speed_m_s, p.inflow_ramp_s),
+            "value": "uniform (0 0 0)",
+        }
     d.writeFile()
     d = _parsed(zero / "k")
     d["kInlet"] = p.k_inlet
@@ -354,6 +365,18 @@ def _write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool
             "value": "uniform (0 0 0)",
         }
     d.writeFile()
+
+
+def inflow_ramp_table(speed: float, duration: float, points: int = 24) -> str:
+    """An OpenFOAM table ``((t (u 0 0)) ...)``: the inflow from 0 to ``speed`` over
+    ``duration`` as the quintic smoothstep (zero acceleration at both ends), sampled at
+    ``points`` + 1 times (linear between them); constant after."""
+    rows = []
+    for k in range(points + 1):
+        x = k / points
+        u = speed * x**3 * (10 - 15 * x + 6 * x * x)
+        rows.append(f"({duration * x!r} ({u!r} 0 0))")
+    return "(" + " ".join(rows) + ")"
 
 
 def _plugin_lib() -> Path:
@@ -688,8 +711,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     ``mpirun -np N pimpleFoam -parallel`` and reconstructPar. A case that has written times
     continues from the latest (controlDict ``startFrom latestTime``).
 
-    A run that starts from time 0 starts from potential flow (``potentialFoam -writep``) rather
-    than from rest: no impulsive start. ``stop_when(case) -> str | None`` is asked every few
+    ``stop_when(case) -> str | None`` is asked every few
     seconds while the solver runs; a reason ends the run (written) as the mesh watch does, and
     is recorded as ``stopped_because`` (not an error).
 
@@ -717,8 +739,6 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
                              "it with scripts/build_plugin.sh")
     start_time = _time_dirs(case)[-1][0] if _time_dirs(case) else 0.0
     end_time = float(_parsed(case / "system" / "controlDict")["endTime"])
-    if start_time == 0.0:
-        run_utility(case, ["potentialFoam", "-writep"])
     solver = ["pimpleFoam", "-debug-switch", "polyMesh=1",
               "-opt-switch", f"stopAtWriteNowSignal={int(_STOP_SIGNAL)}"]
     server = None

@@ -175,6 +175,9 @@ class Case:
     writes_per_cycle: int = field(default=4, metadata={"check": lambda v: v >= 1})
     turbulence: str = field(default="kOmegaSST", metadata={"choices": ("kOmegaSST", "laminar")})
     ranks: int = field(default=1, metadata={"check": lambda v: v >= 1})
+    #: the inflow ramps in from still water over this many stroke cycles (0: impulsive start,
+    #: uniform flow everywhere at t = 0)
+    inflow_ramp_cycles: float = field(default=0.5, metadata={"check": _non_negative})
     #: run-case also runs the whale gliding (same mesh, no stroke) for the drag baseline
     gliding: bool = True
     #: periodic state: cycle-to-cycle change of mean Fx (of the gliding drag) and mean power

@@ -1,9 +1,10 @@
 """run-case's two runs on one mesh, and the answer: what swimming costs the whale.
 
 1. **Gliding** (``<case>/gliding/``): the same whale on the same mesh, not moving
-   (staticFvMesh), from potential flow, until the mean drag over a stroke period changes by
+   (staticFvMesh), from still water with the inflow ramped in (``case.inflow_ramp_cycles``),
+   until the mean drag over a stroke period changes by
    less than ``case.periodic_tolerance`` from one period to the next.
-2. **Swimming** (``<case>/``): the coupled run, from potential flow, the stroke ramping in over
+2. **Swimming** (``<case>/``): the coupled run, started the same way, the stroke ramping in over
    its first ``stroke.ramp_cycles`` (the start-up, discarded), until the cycle-mean Fx (against
    the gliding drag) and the cycle-mean power each change by less than the tolerance between
    the last two cycles; at most ``case.cycles`` cycles.

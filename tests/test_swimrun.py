@@ -1,0 +1,173 @@
+"""What swimming costs the whale: the arithmetic of adapter/loads.py against worked numbers, and
+run-case's gliding + swimming pair on the smoke whale with the real pimpleFoam."""
+
+import json
+import math
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from adapter import loads as ld
+from adapter.errors import AdapterError
+
+
+def _write_loads(path: Path, times, fx, power, extra_header=""):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    cols = ["Fx", "Fy", "Fz", "Fpx", "Fpy", "Fpz", "Fvx", "Fvy", "Fvz", "P", "Pp", "Pv", "A"]
+    head = "# Time" + "".join(f"\ttotal:{c}" for c in cols) + "\n"
+    rows = []
+    for t, f, p in zip(times, fx, power, strict=True):
+        vals = [f, 0, 0.5 * f, f, 0, 0, 0, 0, 0, p, p, 0, 100.0]
+        rows.append(f"{t:.10g}" + "".join(f"\t{v:.10g}" for v in vals))
+    path.write_text("# Loads\n" + extra_header + head + "\n".join(rows) + "\n")
+
+
+def test_loads_files_of_restarts_merge_later_wins_and_cut_lines_are_skipped(tmp_path):
+    base = tmp_path / "postProcessing" / "loads"
+    _write_loads(base / "0" / "loads.dat", [0.1, 0.2, 0.3], [1, 2, 3], [10, 20, 30])
+    _write_loads(base / "0.2" / "loads.dat", [0.3, 0.4], [33, 4], [330, 40])
+    with open(base / "0.2" / "loads.dat", "a") as fh:
+        fh.write("0.5\t1\t2")  # a line a running solver has not finished
+    d = ld.read_loads(tmp_path)
+    np.testing.assert_array_equal(d["Time"], [0.1, 0.2, 0.3, 0.4])
+    np.testing.assert_array_equal(d["total:Fx"], [1, 2, 33, 4])
+    np.testing.assert_array_equal(d["total:P"], [10, 20, 330, 40])
+    assert ld.read_loads(tmp_path / "nothing") == {}
+
+
+def test_cycle_means_and_periodicity_of_a_known_signal():
+    """Fx = 100 + 50 sin(2 pi t / T) + a decaying 40 exp(-t / T): cycle means known in closed
+    form; periodic once the decay is under the tolerance."""
+    T, dt = 2.0, 0.001
+    t = np.arange(dt, 8 * T + 1e-9, dt)
+    fx = 100 + 50 * np.sin(2 * np.pi * t / T) + 40 * np.exp(-t / T)
+    power = 1000 + 0 * t
+    st = ld.cycle_stats(t, fx, power, T, start_up=T)
+    assert len(st.starts) == 7
+    for k, a in enumerate(st.starts):
+        exact = 100 + 40 * T * (math.exp(-a / T) - math.exp(-(a + T) / T)) / T
+        assert st.mean_fx[k] == pytest.approx(exact, rel=2e-4)
+    dfx, dp = ld.periodic_change(st, force_scale=100.0)
+    last_two = st.mean_fx[-1] - st.mean_fx[-2]
+    assert dfx == pytest.approx(abs(last_two) / 100.0) and dp == 0.0
+    # early on the decay is 40 (e^-1 - e^-2) / 1 ~ 9 N of 100: not periodic at 2 %
+    early = ld.cycle_stats(t[t <= 3 * T + 1e-9], fx[t <= 3 * T + 1e-9], power[t <= 3 * T + 1e-9],
+                           T, start_up=T)
+    assert not ld.is_periodic(early, 100.0, 0.02)
+    assert ld.is_periodic(st, 100.0, 0.02)
+
+
+def test_worst_drop_is_the_brute_force_worst_case():
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=200)
+    x[17] = 40.0  # one spike
+    k = 2  # 1 % of 200
+    mean = x.mean()
+    best = 0.0
+    # brute force over every pair would be 19,900 subsets: fine
+    for i in range(len(x)):
+        for j in range(i + 1, len(x)):
+            keep = np.ones(len(x), bool)
+            keep[[i, j]] = False
+            best = max(best, abs(x[keep].mean() - mean))
+    assert ld.worst_drop(x, 0.01) == pytest.approx(best, rel=1e-12)
+    assert k == max(1, int(0.01 * len(x)))
+
+
+def test_flat_plate_friction_of_the_issue():
+    """The issue's figure: about 290 N for a flat plate of 125.8 m2 at 1.3 m/s, L = 15 m
+    (ITTC-57: Re = 1.95e7, Cf = 0.075 / (7.290 - 2)^2 = 2.680e-3)."""
+    ref = ld.van_der_hoop_drag(1.3, 15.0, 3.0, 125.8, 1025.0, 1e-6)
+    assert ref["reynolds"] == pytest.approx(1.95e7)
+    assert ref["cf_ittc57"] == pytest.approx(2.680e-3, rel=1e-3)
+    assert ref["flat_plate_N"] == pytest.approx(292.0, abs=1.0)
+    # form factor at d / L = 0.2: 1 + 1.5 * 0.0894 + 7 * 0.008 = 1.190
+    assert ref["form_factor"] == pytest.approx(1 + 1.5 * 0.2**1.5 + 7 * 0.2**3)
+    assert ref["drag_N"] == pytest.approx(292.0 * 1.190, rel=5e-3)
+
+
+def test_efficiency_and_cost_of_transport_worked_example():
+    # gliding 350 N, swimming mean Fx 50 N: the stroke delivers 300 N at 1.3 m/s = 390 W
+    c = ld.cost_figures(350.0, 50.0, 600.0, 1.3, 40000.0)
+    assert c["thrust_N"] == 300.0
+    assert c["froude_efficiency"] == pytest.approx(390.0 / 600.0)
+    assert c["cost_of_transport_J_kg_m"] == pytest.approx(600.0 / (40000.0 * 1.3))
+    with pytest.raises(AdapterError, match="not positive"):
+        ld.cost_figures(350.0, 50.0, -1.0, 1.3, 40000.0)
+
+
+def test_body_dimensions_of_a_box():
+    """A 4 x 2 x 1 m box: area 28 m2, volume 8 m3, height 1 m."""
+    from adapter.geometry import WhaleSurface
+
+    p = np.array([[x, y, z] for x in (0, 4) for y in (-1, 1) for z in (-0.5, 0.5)], float)
+    quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4],
+                      [1, 5, 7, 3]])
+    surf = WhaleSurface(points=p, faces=[quads], landmarks={}, length=4.0)
+    if surf.volume() < 0:
+        surf = WhaleSurface(points=p, faces=[quads[:, ::-1].copy()], landmarks={}, length=4.0)
+    d = ld.body_dimensions(surf, tail_base_s=1.01)
+    assert d["wetted_area_m2"] == pytest.approx(28.0)
+    assert d["volume_m3"] == pytest.approx(8.0)
+    assert d["diameter_m"] == pytest.approx(1.0)
+
+
+SCENE = """
+[geometry]
+nodes = 1200
+[stroke]
+velocity_scale = 1.07368
+[case]
+background_cell_m = 4.0
+refinement = [1, 2]
+cycles = 4
+dt_s = 0.1
+writes_per_cycle = 4
+turbulence = "laminar"
+layers = 0
+gliding = true
+"""
+
+
+@pytest.mark.skipif(shutil.which("pimpleFoam") is None, reason="OpenFOAM is not installed")
+def test_run_case_runs_gliding_and_swimming_to_a_periodic_state(tmp_path):
+    from adapter.case import PLUGIN_LIB
+
+    if not PLUGIN_LIB.is_file():
+        pytest.skip(f"the plugin library {PLUGIN_LIB} is not built (make plugin)")
+    scene = tmp_path / "glide.toml"
+    scene.write_text(SCENE)
+    case = tmp_path / "case"
+    res = subprocess.run([sys.executable, "-m", "adapter.cli", "run-case", "--scene",
+                          str(scene), "--case", str(case)], capture_output=True, text=True,
+                         timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert "Froude efficiency" in res.stdout and "gliding drag" in res.stdout
+    s = json.loads((case / "adapter-summary.json").read_text())["swimming_cost"]
+    glide = ld.read_loads(case / "gliding")
+    swim = ld.read_loads(case)
+    period = 1 / 0.13
+    # the swimming run stopped when periodic, before case.cycles; the gliding run when steady
+    # or at case.cycles
+    assert s["periodic_change"]["reached"]
+    assert "periodic" in json.loads((case / "adapter-summary.json").read_text())[
+        "stopped_because"]
+    why = s["gliding_run"]["stopped_because"]
+    assert why is None and glide["Time"][-1] > 4 * period - 1 or "steady" in why
+    assert swim["Time"][-1] < 4 * period - 1  # stopped before case.cycles
+    # the figures are the last period's means of the written loads
+    last = swim["Time"] > s["cycle_means"]["start_s"][-1] + 1e-9
+    last &= swim["Time"] <= s["cycle_means"]["start_s"][-1] + period + 1e-9
+    assert s["swimming_mean_fx_N"] == pytest.approx(swim["total:Fx"][last].mean())
+    assert s["swimming_mean_power_W"] == pytest.approx(swim["total:P"][last].mean())
+    g_last = glide["Time"] > glide["Time"][-1] - period
+    assert s["gliding_drag_N"] == pytest.approx(glide["total:Fx"][g_last].mean(), rel=0.05)
+    # gliding: the whale does not move, so it puts no power into the water
+    np.testing.assert_allclose(glide["total:P"], 0.0, atol=1e-9)
+    # the start-up is not measured: no cycle starts before the ramp ends
+    assert s["cycle_means"]["start_s"][0] >= period - 1e-9
+    assert (case / "forces.png").stat().st_size > 10_000
