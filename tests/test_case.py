@@ -305,3 +305,76 @@ def test_static_smoke_run(tmp_path, smoke_mesh):
     written = [t for t, _ in C._time_dirs(case)]
     assert len(written) == 1 + record["parameters"]["n_steps"] // \
         record["parameters"]["steps_per_write"]
+
+
+# --- reruns, refusals, the summary table (issue 12) ---------------------------------------
+
+
+def test_fatal_error_text_is_taken_from_the_log():
+    log = """Time = 0.384
+
+[1]
+[1]
+[1] --> FOAM FATAL ERROR:
+[1] stepServer: REQUEST at time 0.384 s: the server closed the connection (did the server stop?)
+[1] socket /tmp/x/.whale-adapter.sock
+[1]
+[1]     From function void Foam::stepServerClient::exchange()
+[1]     in file stepServerClient.C at line 301.
+[1]
+FOAM parallel run exiting
+"""
+    assert C.fatal_error(log) == ("stepServer: REQUEST at time 0.384 s: the server closed the "
+                                  "connection (did the server stop?)\n"
+                                  "socket /tmp/x/.whale-adapter.sock")
+    assert C.fatal_error("Time = 1\nExecutionTime = 2 s\n") is None
+
+
+def test_format_summary_is_a_table_of_the_rows_present():
+    summary = {"case": "/tmp/c", "preset": "smoke", "static_whale": False, "cells": 4303,
+               "steps": 8, "end_time_s": 0.383, "adapter_s_per_step": 0.0125, "drag_N": None,
+               "worst_cell_quality": {"max_non_orthogonality_deg": 57.84}}
+    text = C.format_summary(summary)
+    lines = text.splitlines()
+    assert lines[0].split() == ["case", "/tmp/c"]
+    assert any(line.split()[-2:] == ["4,303"] or line.endswith(" 4,303") for line in lines)
+    assert "12.5 ms" in text and "57.8 deg" in text and "0.383 s" in text
+    assert "drag" not in text                                   # None: left out
+    assert not text.lstrip().startswith("{")                    # not JSON
+    # data-driven: another row list
+    assert C.format_summary({"x": 2.0}, rows=[("ex", "x", "{:.1f} m")]) == "ex  2.0 m"
+
+
+def test_run_case_refuses_a_foreign_folder_before_meshing(tmp_path, capsys):
+    from adapter.cli import main
+
+    case = tmp_path / "foreign"
+    shutil.copytree(C.TEMPLATE_DIR, case)        # a case folder, but not made by run-case
+    assert main(["run-case", "--case", str(case)]) == 2
+    err = capsys.readouterr().err
+    assert "adapter-case.json is missing" in err and "another" in err
+    assert not (case / "log.blockMesh").exists() and not (case / "constant" / "polyMesh").exists()
+
+
+@pytest.mark.openfoam
+@pytest.mark.slow
+@needs_openfoam
+def test_run_case_twice_with_the_same_preset_continues(tmp_path, capsys):
+    """What `make run-case SCENE=smoke CASE=DIR` does twice: the second run reuses the case;
+    another preset is refused, naming both."""
+    from adapter.cli import main
+
+    case = tmp_path / "twice"
+    args = ["run-case", "--preset", "smoke", "--static-whale", "--case", str(case)]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "largest non-orthogonality" in out and not out.rstrip().endswith("}")
+    end = C.read_record(case)["parameters"]["end_time"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert f"{case} already holds a case (preset smoke, static whale): continuing it from " \
+           f"t = {end:.6g} s" in out
+    assert "nothing to run" in out
+    assert main(["run-case", "--preset", "default", "--case", str(case)]) == 2
+    err = capsys.readouterr().err
+    assert "--preset default (recorded: preset smoke" in err and "another --case" in err
