@@ -33,13 +33,14 @@ from pathlib import Path
 
 import numpy as np
 
+from . import resources
 from .errors import AdapterError, SolverRunError
 
 _REPO = Path(__file__).resolve().parent.parent
-#: the template case
-TEMPLATE_DIR = _REPO / "foam_case"
-#: the boundary condition library built by scripts/build_plugin.sh
-PLUGIN_LIB = _REPO / "build" / "lib" / "libstepServerDisplacement.so"
+#: the template case (foam_case/ of the repository, adapter/_foam_case in a wheel)
+TEMPLATE_DIR = resources.TEMPLATE_DIR
+#: the boundary condition library built by scripts/build_plugin.sh (resources.build_dir())
+PLUGIN_LIB = resources.PLUGIN_LIB
 #: Debian's OpenFOAM wants this one variable (shared/notes/openfoam-on-debian.md)
 FOAM_DIR = "/usr/share/openfoam"
 #: what prepare_case records about the case (scene, derived numbers, mesh)
@@ -233,8 +234,8 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
             "or remove it / choose another --case to prepare a new one"
         )
     if not (TEMPLATE_DIR / "system" / "controlDict").is_file():
-        raise AdapterError(f"the template case {TEMPLATE_DIR} is missing; reinstall from the "
-                           "repository (pip install -e .)")
+        raise AdapterError(f"the template case {TEMPLATE_DIR} is missing; reinstall the "
+                           "package (pip install . or pip install -e . from the repository)")
     if surface is None:
         from .geometry import build_surface
 
@@ -709,7 +710,8 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True) -> di
     static = bool(record.get("static_whale"))
     if not static and not _plugin_lib().is_file():
         raise SolverRunError(f"the boundary condition library {_plugin_lib()} is missing; build "
-                             "it with scripts/build_plugin.sh")
+                             f"it with `bash {resources.BUILD_SCRIPT}` (or point "
+                             "WHALE_PLUGIN_LIB at a built one)")
     times = _time_dirs(case)
     serial_latest = times[-1][0] if times else 0.0
     ranks_latest = _processor_latest(case)
