@@ -106,7 +106,8 @@ class CaseParameters:
     ranks: int
 
 
-def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None) -> CaseParameters:
+def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
+                    length: float | None = None) -> CaseParameters:
     """The case's numbers from the scene and the whale's bounding box.
 
     Parameters
@@ -114,17 +115,22 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None) -> 
     scene : a :class:`~adapter.scene.Scene`.
     bounds_min, bounds_max : (3,) the whale surface's bounding box (m).
     ranks : MPI ranks; None takes ``scene.case.ranks``.
+    length : the body's length L (m): the surface's own (``WhaleSurface.length``, what
+        prepare_case passes); None takes ``scene.geometry.length_m``.
 
-    The domain reaches ``upstream`` body lengths before the rostrum, ``downstream`` after the
-    flukes and ``half_width`` to each side and above and below the body's centre. The time step
-    is ``0.5 * smallest cell / U`` unless ``case.dt_s > 0``; either is rounded down so that the
-    write interval (one stroke cycle / ``writes_per_cycle``) is a whole number of steps, then
-    down to a binary fraction (:func:`_binary_step`), and the end time is rounded up to a whole
-    number of write intervals (at most a tenth of one short) so that a run ends on a
+    The background cell is ``case.background_cell`` body lengths (``case.background_cell_m``
+    metres when > 0). The domain reaches ``upstream`` body lengths before the rostrum,
+    ``downstream`` after the flukes and ``half_width`` to each side and above and below the
+    body's centre. The time step is ``0.5 * smallest cell / U`` unless ``case.dt_s > 0``;
+    either is rounded down so that the write interval (one stroke cycle /
+    ``writes_per_cycle``) is a whole number of steps, then down to a binary fraction
+    (:func:`_binary_step`), and the end time is rounded up to a whole number of write
+    intervals (at most a tenth of one short) so that a run ends on a
     written (restartable) time.
     """
     c = scene.case
-    length = scene.geometry.length_m
+    length = float(length) if length else scene.geometry.length_m
+    cell = c.background_cell_m if c.background_cell_m > 0 else c.background_cell * length
     lo = np.asarray(bounds_min, dtype=float)
     hi = np.asarray(bounds_max, dtype=float)
     centre = 0.5 * (lo + hi)
@@ -132,7 +138,7 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None) -> 
                      centre[2] - c.half_width * length])
     dmax = np.array([hi[0] + c.downstream * length, centre[1] + c.half_width * length,
                      centre[2] + c.half_width * length])
-    cells = np.maximum(1, np.round((dmax - dmin) / c.background_cell_m)).astype(int)
+    cells = np.maximum(1, np.round((dmax - dmin) / cell)).astype(int)
     size = (dmax - dmin) / cells
     smallest = float(size.min()) / 2 ** c.refinement[1]
     speed = scene.flow.speed_m_s
@@ -240,26 +246,47 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         from .geometry import build_surface
 
         surface = build_surface(scene)
+    _check_length(scene, surface)
     case.mkdir(parents=True, exist_ok=True)
     shutil.copytree(TEMPLATE_DIR, case, dirs_exist_ok=True)
     stl = case / "constant" / "triSurface" / "whale.stl"
     surface.write(stl)
     pts = np.asarray(surface.points)
-    params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks)
+    params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
+                             length=surface.length)
     _write_dictionaries(case, scene, params, static_whale)
     record = {
         "scene_file": str(Path(scene_file).resolve()) if scene_file else None,
         "preset": scene.name,
         "static_whale": static_whale,
-        "length_m": scene.geometry.length_m,
+        "length_m": float(surface.length),
+        "body_size_m": [float(v) for v in np.ptp(pts, axis=0)],
         "period_s": scene.period_s,
         "speed_m_s": scene.flow.speed_m_s,
+        "rho_kg_m3": scene.flow.rho_kg_m3,
         "max_non_orthogonality": scene.case.max_non_orthogonality,
         "surface_nodes": int(len(pts)),
         "parameters": asdict(params),
     }
     _write_json(case / CASE_RECORD, record)
     return params
+
+
+#: how far a mesh file's own length may differ from geometry.length_m
+LENGTH_MISMATCH = 0.03
+
+
+def _check_length(scene, surface) -> None:
+    """A mesh-file body whose length (rostrum to the farthest x) is not geometry.length_m is
+    refused: the stroke amplitude and the calibration are set in units of geometry.length_m,
+    the case in units of the mesh's own length (a mesh file is not scaled)."""
+    want, have = scene.geometry.length_m, float(surface.length)
+    if abs(have / want - 1) > LENGTH_MISMATCH:
+        raise AdapterError(
+            f"the mesh {scene.geometry.source} is {have:.4g} m long (rostrum to the farthest x) "
+            f"but geometry.length_m = {want:g} m; mesh files are not scaled: set "
+            f"geometry.length_m = {have:.4g} in the scene, or scale the mesh file to "
+            f"{want:g} m")
 
 
 def _write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool) -> None:
@@ -406,7 +433,7 @@ def mesh_case(case_dir) -> dict:
     info["mesh_s"] = round(time.perf_counter() - t0, 2)
     if not info.get("whale_faces"):
         raise SolverRunError(f"snappyHexMesh made no whale patch; see {case / 'log.snappyHexMesh'}"
-                             " (is locationInMesh in the water?)")
+                             f" ({_no_patch_hint(read_record(case))})")
     _restore_zero(case)
     record_path = case / CASE_RECORD
     if record_path.is_file():
@@ -414,6 +441,17 @@ def mesh_case(case_dir) -> dict:
         record["mesh"] = info
         _write_json(record_path, record)
     return info
+
+
+def _no_patch_hint(record: dict) -> str:
+    """Why snappyHexMesh may have kept no whale: cells too coarse for the body, most often."""
+    smallest = record.get("parameters", {}).get("smallest_cell_m")
+    size = record.get("body_size_m")
+    if smallest and size and smallest > 0.25 * min(size[1], size[2]):
+        return (f"the smallest cell, {smallest:.3g} m, is too coarse for a body "
+                f"{min(size[1], size[2]):.3g} m across: lower case.background_cell (body "
+                "lengths) or case.background_cell_m, or raise case.refinement")
+    return "is locationInMesh in the water?"
 
 
 def parse_check_mesh(text: str) -> dict:
