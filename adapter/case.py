@@ -795,7 +795,10 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True) -> di
         fatal = None if stopped else fatal_error(
             (case / "log.pimpleFoam").read_text(errors="replace"))
         if fatal:
-            hint += ":\n    " + fatal.replace("\n", "\n    ") + "\n"
+            raise SolverRunError(f"{what}{hint}, with OpenFOAM's message:\n    "
+                                 + fatal.replace("\n", "\n    ")
+                                 + f"\n(see {case / 'log.pimpleFoam'}; run the same command again"
+                                 " to continue from the latest written time)")
         raise SolverRunError(f"{what}{hint}; see {case / 'log.pimpleFoam'}")
     if ranks > 1:
         run_utility(case, ["reconstructPar", "-newTimes"])
