@@ -77,7 +77,12 @@ def _length(scene) -> float:
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("calibrate", help="fit the velocity scale to the target amplitude")
+    p = subparsers.add_parser(
+        "calibrate", help="fit the velocity scale to the target amplitude",
+        description="Solve stroke.velocity_scale (secant method) so that the fluke tips' "
+        "peak-to-peak amplitude over a stroke cycle, after the start-up cycle, matches "
+        "calibration.fluke_amplitude * L; prints the value to put in the scene file "
+        "(docs/stroke.md).")
     p.add_argument("--scene", help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
     p.add_argument("--report", help="write the calibration report (JSON) here")

@@ -33,13 +33,14 @@ from pathlib import Path
 
 import numpy as np
 
+from . import resources
 from .errors import AdapterError, SolverRunError
 
 _REPO = Path(__file__).resolve().parent.parent
-#: the template case
-TEMPLATE_DIR = _REPO / "foam_case"
-#: the boundary condition library built by scripts/build_plugin.sh
-PLUGIN_LIB = _REPO / "build" / "lib" / "libstepServerDisplacement.so"
+#: the template case (foam_case/ of the repository, adapter/_foam_case in a wheel)
+TEMPLATE_DIR = resources.TEMPLATE_DIR
+#: the boundary condition library built by scripts/build_plugin.sh (resources.build_dir())
+PLUGIN_LIB = resources.PLUGIN_LIB
 #: Debian's OpenFOAM wants this one variable (shared/notes/openfoam-on-debian.md)
 FOAM_DIR = "/usr/share/openfoam"
 #: what prepare_case records about the case (scene, derived numbers, mesh)
@@ -107,7 +108,8 @@ class CaseParameters:
     inflow_ramp_s: float = 0.0
 
 
-def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None) -> CaseParameters:
+def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
+                    length: float | None = None) -> CaseParameters:
     """The case's numbers from the scene and the whale's bounding box.
 
     Parameters
@@ -115,17 +117,22 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None) -> 
     scene : a :class:`~adapter.scene.Scene`.
     bounds_min, bounds_max : (3,) the whale surface's bounding box (m).
     ranks : MPI ranks; None takes ``scene.case.ranks``.
+    length : the body's length L (m): the surface's own (``WhaleSurface.length``, what
+        prepare_case passes); None takes ``scene.geometry.length_m``.
 
-    The domain reaches ``upstream`` body lengths before the rostrum, ``downstream`` after the
-    flukes and ``half_width`` to each side and above and below the body's centre. The time step
-    is ``0.5 * smallest cell / U`` unless ``case.dt_s > 0``; either is rounded down so that the
-    write interval (one stroke cycle / ``writes_per_cycle``) is a whole number of steps, then
-    down to a binary fraction (:func:`_binary_step`), and the end time is rounded up to a whole
-    number of write intervals (at most a tenth of one short) so that a run ends on a
+    The background cell is ``case.background_cell`` body lengths (``case.background_cell_m``
+    metres when > 0). The domain reaches ``upstream`` body lengths before the rostrum,
+    ``downstream`` after the flukes and ``half_width`` to each side and above and below the
+    body's centre. The time step is ``0.5 * smallest cell / U`` unless ``case.dt_s > 0``;
+    either is rounded down so that the write interval (one stroke cycle /
+    ``writes_per_cycle``) is a whole number of steps, then down to a binary fraction
+    (:func:`_binary_step`), and the end time is rounded up to a whole number of write
+    intervals (at most a tenth of one short) so that a run ends on a
     written (restartable) time.
     """
     c = scene.case
-    length = scene.geometry.length_m
+    length = float(length) if length else scene.geometry.length_m
+    cell = c.background_cell_m if c.background_cell_m > 0 else c.background_cell * length
     lo = np.asarray(bounds_min, dtype=float)
     hi = np.asarray(bounds_max, dtype=float)
     centre = 0.5 * (lo + hi)
@@ -133,7 +140,7 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None) -> 
                      centre[2] - c.half_width * length])
     dmax = np.array([hi[0] + c.downstream * length, centre[1] + c.half_width * length,
                      centre[2] + c.half_width * length])
-    cells = np.maximum(1, np.round((dmax - dmin) / c.background_cell_m)).astype(int)
+    cells = np.maximum(1, np.round((dmax - dmin) / cell)).astype(int)
     size = (dmax - dmin) / cells
     smallest = float(size.min()) / 2 ** c.refinement[1]
     speed = scene.flow.speed_m_s
@@ -236,18 +243,20 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
             "or remove it / choose another --case to prepare a new one"
         )
     if not (TEMPLATE_DIR / "system" / "controlDict").is_file():
-        raise AdapterError(f"the template case {TEMPLATE_DIR} is missing; reinstall from the "
-                           "repository (pip install -e .)")
+        raise AdapterError(f"the template case {TEMPLATE_DIR} is missing; reinstall the "
+                           "package (pip install . or pip install -e . from the repository)")
     if surface is None:
         from .geometry import build_surface
 
         surface = build_surface(scene)
+    _check_length(scene, surface)
     case.mkdir(parents=True, exist_ok=True)
     shutil.copytree(TEMPLATE_DIR, case, dirs_exist_ok=True)
     stl = case / "constant" / "triSurface" / "whale.stl"
     surface.write(stl)
     pts = np.asarray(surface.points)
-    params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks)
+    params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
+                             length=surface.length)
     _write_dictionaries(case, scene, params, static_whale)
     from .loads import body_dimensions
 
@@ -265,7 +274,8 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         "periodic_tolerance": scene.case.periodic_tolerance,
         "preset": scene.name,
         "static_whale": static_whale,
-        "length_m": scene.geometry.length_m,
+        "length_m": float(surface.length),
+        "body_size_m": [float(v) for v in np.ptp(pts, axis=0)],
         "period_s": scene.period_s,
         "speed_m_s": scene.flow.speed_m_s,
         "max_non_orthogonality": scene.case.max_non_orthogonality,
@@ -274,6 +284,23 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     }
     _write_json(case / CASE_RECORD, record)
     return params
+
+
+#: how far a mesh file's own length may differ from geometry.length_m
+LENGTH_MISMATCH = 0.03
+
+
+def _check_length(scene, surface) -> None:
+    """A mesh-file body whose length (rostrum to the farthest x) is not geometry.length_m is
+    refused: the stroke amplitude and the calibration are set in units of geometry.length_m,
+    the case in units of the mesh's own length (a mesh file is not scaled)."""
+    want, have = scene.geometry.length_m, float(surface.length)
+    if abs(have / want - 1) > LENGTH_MISMATCH:
+        raise AdapterError(
+            f"the mesh {scene.geometry.source} is {have:.4g} m long (rostrum to the farthest x) "
+            f"but geometry.length_m = {want:g} m; mesh files are not scaled: set "
+            f"geometry.length_m = {have:.4g} in the scene, or scale the mesh file to "
+            f"{want:g} m")
 
 
 def _write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool) -> None:
@@ -392,7 +419,8 @@ def read_record(case_dir) -> dict:
     path = Path(case_dir) / CASE_RECORD
     if not path.is_file():
         raise AdapterError(f"{path} is missing: {case_dir} was not made by "
-                           "`whale-adapter run-case`; prepare a case with --scene/--preset")
+                           "`whale-adapter run-case`, so it is neither meshed nor run; choose "
+                           "another (new or empty) --case to prepare a case with --scene/--preset")
     return json.loads(path.read_text())
 
 
@@ -447,6 +475,7 @@ def mesh_case(case_dir) -> dict:
     """
     _check_foam()
     case = Path(case_dir)
+    read_record(case)  # a folder not made by run-case is refused before blockMesh touches it
     t0 = time.perf_counter()
     run_utility(case, ["blockMesh"])
     run_utility(case, ["snappyHexMesh", "-overwrite"])
@@ -456,7 +485,7 @@ def mesh_case(case_dir) -> dict:
     info.update(layer_record(case))
     if not info.get("whale_faces"):
         raise SolverRunError(f"snappyHexMesh made no whale patch; see {case / 'log.snappyHexMesh'}"
-                             " (is locationInMesh in the water?)")
+                             f" ({_no_patch_hint(read_record(case))})")
     _restore_zero(case)
     record_path = case / CASE_RECORD
     if record_path.is_file():
@@ -490,6 +519,17 @@ def layer_record(case_dir) -> dict:
         if key in report:
             report[key] = round(report[key], 4)
     return {"layers": report}
+
+
+def _no_patch_hint(record: dict) -> str:
+    """Why snappyHexMesh may have kept no whale: cells too coarse for the body, most often."""
+    smallest = record.get("parameters", {}).get("smallest_cell_m")
+    size = record.get("body_size_m")
+    if smallest and size and smallest > 0.25 * min(size[1], size[2]):
+        return (f"the smallest cell, {smallest:.3g} m, is too coarse for a body "
+                f"{min(size[1], size[2]):.3g} m across: lower case.background_cell (body "
+                "lengths) or case.background_cell_m, or raise case.refinement")
+    return "is locationInMesh in the water?"
 
 
 def parse_check_mesh(text: str) -> dict:
@@ -651,6 +691,61 @@ def _time_dirs(case: Path) -> list:
     return sorted(out)
 
 
+def _processor_dirs(case: Path) -> list:
+    """The case's ``processor<N>`` folders, in rank order."""
+    procs = [p for p in case.glob("processor*") if p.is_dir() and p.name[9:].isdigit()]
+    return sorted(procs, key=lambda p: int(p.name[9:]))
+
+
+def _processor_latest(case: Path) -> float | None:
+    """The latest time every processor folder holds, or None (no processor folders)."""
+    common = None
+    for p in _processor_dirs(case):
+        names = {d.name for _, d in _time_dirs(p)}
+        common = names if common is None else common & names
+    return max((float(n) for n in common), default=None) if common else None
+
+
+def _trim_processor_times(case: Path, latest: float) -> None:
+    """Remove the processor time folders after ``latest`` (a time only some ranks wrote)."""
+    for p in _processor_dirs(case):
+        for t, d in _time_dirs(p):
+            if t > latest:
+                shutil.rmtree(d)
+
+
+def resume_time(case_dir) -> float:
+    """The time a run of the case starts from: its latest written time, in the case folder or
+    (after a parallel run that stopped before reconstructPar) in every processor folder."""
+    case = Path(case_dir)
+    times = _time_dirs(case)
+    serial = times[-1][0] if times else 0.0
+    procs = _processor_latest(case)
+    return serial if procs is None else max(serial, procs)
+
+
+def fatal_error(log_text: str) -> str | None:
+    """The message lines of the first ``--> FOAM FATAL (IO) ERROR`` block of a log, or None.
+
+    OpenFOAM prints the header, the message, then ``From function ...`` / ``in file ...`` and
+    ``FOAM exiting``; rank prefixes (``[1] ``) of a parallel run are dropped."""
+    lines = [re.sub(r"^\[\d+\] ?", "", line) for line in log_text.splitlines()]
+    for i, line in enumerate(lines):
+        m = re.search(r"--> FOAM FATAL (?:IO )?ERROR:?(.*)$", line)
+        if not m:
+            continue
+        out = [m.group(1).strip()] if m.group(1).strip() else []
+        for rest in lines[i + 1:]:
+            text = rest.strip()
+            if text.startswith(("From function", "From ", "in file", "FOAM exiting",
+                                "FOAM parallel run exiting", "--> FOAM")):
+                break
+            if text:
+                out.append(text)
+        return "\n".join(out) if out else None
+    return None
+
+
 def _server_command(case: Path, record: dict) -> list:
     cmd = [sys.executable, "-m", "adapter.cli", "serve", "--case", str(case)]
     if record.get("scene_file"):
@@ -736,19 +831,36 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     static = bool(record.get("static_whale"))
     if not static and not _plugin_lib().is_file():
         raise SolverRunError(f"the boundary condition library {_plugin_lib()} is missing; build "
-                             "it with scripts/build_plugin.sh")
-    start_time = _time_dirs(case)[-1][0] if _time_dirs(case) else 0.0
-    end_time = float(_parsed(case / "system" / "controlDict")["endTime"])
+                             f"it with `bash {resources.BUILD_SCRIPT}` (or point "
+                             "WHALE_PLUGIN_LIB at a built one)")
+    times = _time_dirs(case)
+    serial_latest = times[-1][0] if times else 0.0
+    ranks_latest = _processor_latest(case)
+    from_ranks = ranks_latest is not None and ranks_latest > serial_latest
+    if from_ranks and (ranks == 1 or len(_processor_dirs(case)) != ranks):
+        # the latest times are in processor folders of another rank count: reconstruct them
+        _trim_processor_times(case, ranks_latest)
+        run_utility(case, ["reconstructPar", "-newTimes"])
+        from_ranks = False
+    start_time = resume_time(case)
+    control = _parsed(case / "system" / "controlDict")
+    end_time = float(control["endTime"])
+    if start_time >= end_time - 0.5 * float(control["deltaT"]):
+        return _finished(case, record, ranks, from_ranks, t_start)
     solver = ["pimpleFoam", "-debug-switch", "polyMesh=1",
               "-opt-switch", f"stopAtWriteNowSignal={int(_STOP_SIGNAL)}"]
     server = None
     stopped = None
     watch = LogWatch(case / "log.pimpleFoam")
     try:
-        if ranks > 1:
+        if ranks > 1 and from_ranks:
+            # resume from the ranks' own latest time (a crash left it only there)
+            _trim_processor_times(case, ranks_latest)
+        elif ranks > 1:
             for p in case.glob("processor*"):
                 shutil.rmtree(p)
             run_utility(case, ["decomposePar", "-force", "-latestTime"])
+        if ranks > 1:
             cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", str(ranks),
                    *solver, "-parallel"]
         else:
@@ -764,6 +876,13 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     if rc != 0:
         what = stopped or f"pimpleFoam failed (exit code {rc})"
         hint = f" ({watch.broken})" if watch.broken and not stopped else ""
+        fatal = None if stopped else fatal_error(
+            (case / "log.pimpleFoam").read_text(errors="replace"))
+        if fatal:
+            raise SolverRunError(f"{what}{hint}, with OpenFOAM's message:\n    "
+                                 + fatal.replace("\n", "\n    ")
+                                 + f"\n(see {case / 'log.pimpleFoam'}; run the same command again"
+                                 " to continue from the latest written time)")
         raise SolverRunError(f"{what}{hint}; see {case / 'log.pimpleFoam'}")
     if ranks > 1:
         run_utility(case, ["reconstructPar", "-newTimes"])
@@ -778,6 +897,21 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     if stopped:
         raise SolverRunError(f"{stopped}; the run stopped at t = {summary['end_time_s']:.4g} s "
                              f"with a written mesh; see {case / SUMMARY}")
+    return summary
+
+
+def _finished(case: Path, record: dict, ranks: int, from_ranks: bool, t_start: float) -> dict:
+    """A case already at its end time: nothing to run; its summary (reconstructed first when
+    the last times are only in processor folders)."""
+    if from_ranks:
+        run_utility(case, ["reconstructPar", "-newTimes"])
+    (case / "case.foam").touch()
+    if (case / SUMMARY).is_file():
+        return json.loads((case / SUMMARY).read_text())
+    watch = LogWatch(case / "log.pimpleFoam")
+    watch.poll()
+    summary = summarise(case, watch, record, ranks, 0.0, time.perf_counter() - t_start)
+    _write_json(case / SUMMARY, summary)
     return summary
 
 
@@ -927,10 +1061,17 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
         raise AdapterError(f"--np: expected at least 1 rank, got {args.ranks}")
     case = Path(args.case or Path("runs") / (args.preset or "default"))
     exists = (case / "system" / "controlDict").exists()
-    if exists and (args.scene or args.preset or args.static_whale):
-        raise AdapterError(f"{case} already holds a case; --scene/--preset/--static-whale only "
-                           "prepare new cases: drop them to run it, or choose another --case")
-    if not exists:
+    if exists:
+        # refuses a folder not made by run-case before anything (blockMesh) touches it
+        record = read_record(case)
+        _check_same_case(case, record, args)
+        t0, control = resume_time(case), _parsed(case / "system" / "controlDict")
+        print(f"{case} already holds a case ({_recorded(record)}): "
+              f"continuing it from t = {t0:.6g} s")
+        if t0 >= float(control["endTime"]) - 0.5 * float(control["deltaT"]):
+            print(f"it has reached its end time ({float(control['endTime']):.6g} s): nothing to "
+                  "run (to run it longer, raise endTime in its system/controlDict)")
+    else:
         scene = load_scene(args.scene, preset=args.preset)
         params = prepare_case(scene, case, ranks=args.ranks, static_whale=args.static_whale,
                               scene_file=args.scene)
@@ -946,14 +1087,90 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
             return 0
     record = read_record(case)
     if record.get("gliding", False) and not record.get("static_whale"):
-        from .swimrun import format_table, run_swim_and_glide
+        from .swimrun import COST_ROWS, run_swim_and_glide
 
         summary = run_swim_and_glide(case, record, float(record["periodic_tolerance"]),
                                      ranks=args.ranks)
-        print(f"\n{case}: what swimming costs the whale ({case / SUMMARY}, "
-              f"{case / 'forces.png'})")
-        print(format_table(summary))
+        print(f"\n{case}: what swimming costs the whale")
+        print(format_summary(summary, COST_ROWS))
+        print(f"(all figures: {case / SUMMARY}; picture: {case / 'forces.png'})")
         return 0
     summary = run_case(case, ranks=args.ranks)
-    print(json.dumps(summary, indent=2))
+    print(format_summary(summary))
+    print(f"(all figures: {case / SUMMARY})")
     return 0
+
+
+def _recorded(record: dict) -> str:
+    what = (f"scene {record['scene_file']}" if record.get("scene_file")
+            else f"preset {record.get('preset')}")
+    return what + (", static whale" if record.get("static_whale") else "")
+
+
+def _check_same_case(case: Path, record: dict, args: argparse.Namespace) -> None:
+    """A rerun may name the case's scene/preset again (make run-case does); refuse another."""
+    differs = []
+    if args.scene:
+        asked = str(Path(args.scene).resolve())
+        if asked != record.get("scene_file"):
+            differs.append(f"--scene {asked} (recorded: {_recorded(record)})")
+    if args.preset and (args.preset != record.get("preset")
+                        or (not args.scene and record.get("scene_file"))):
+        differs.append(f"--preset {args.preset} (recorded: {_recorded(record)})")
+    if args.static_whale and not record.get("static_whale"):
+        differs.append("--static-whale (recorded: a coupled, moving whale)")
+    if differs:
+        raise AdapterError(
+            f"{case} already holds a case of another set-up: {'; '.join(differs)} "
+            f"(from {case / CASE_RECORD}). Run it as it is with `whale-adapter run-case --case "
+            f"{case}` (no --scene/--preset), or prepare the new one in another --case "
+            f"(make run-case CASE=...), or remove {case} first")
+
+
+#: the rows of :func:`format_summary`: (label, key of the summary (a/b for nested), format);
+#: the format is a str.format spec with the unit, or a callable value -> str
+SUMMARY_ROWS = [
+    ("case", "case", "{}"),
+    ("preset", "preset", "{}"),
+    ("static whale", "static_whale", lambda v: "yes" if v else "no"),
+    ("cells", "cells", "{:,}"),
+    ("ranks", "ranks", "{}"),
+    ("steps (this run)", "steps", "{}"),
+    ("end time", "end_time_s", "{:.6g} s"),
+    ("time step", "delta_t_s", "{:.6g} s"),
+    ("wall time per step", "step_s", "{:.3g} s"),
+    ("  of which coupling", "adapter_s_per_step", lambda v: f"{v * 1e3:.3g} ms"),
+    ("CPU time per step", "cpu_s_per_step", "{:.3g} s"),
+    ("coupling requests", "adapter_requests", "{:,}"),
+    ("whale patch points", "whale_points", "{:,}"),
+    ("largest mapping distance", "max_mapping_distance_m", "{:.3g} m"),
+    ("largest non-orthogonality", "worst_cell_quality/max_non_orthogonality_deg",
+     "{:.1f} deg"),
+    ("  before motion", "worst_cell_quality/initial_max_non_orthogonality_deg", "{:.1f} deg"),
+    ("smallest cell volume", "worst_cell_quality/min_cell_volume_m3", "{:.3g} m3"),
+    ("largest Courant number", "max_courant", "{:.3g}"),
+    ("mean drag", "drag_N", "{:.4g} N"),
+    ("  over", "drag_window_s", "{:.4g} s"),
+    ("pimpleFoam wall time", "flow_wall_s", "{:.1f} s"),
+    ("run-case wall time", "wall_s", "{:.1f} s"),
+    ("stopped", "stopped", "{}"),
+]
+
+
+def format_summary(summary: dict, rows=None) -> str:
+    """The run's summary as a two-column text table, one line per row of ``rows`` (default
+    :data:`SUMMARY_ROWS`) whose key the summary holds (missing or None: left out)."""
+    lines = []
+    for label, key, fmt in rows or SUMMARY_ROWS:
+        value = summary
+        for part in key.split("/"):
+            value = value.get(part) if isinstance(value, dict) else None
+        if value is None:
+            continue
+        try:
+            text = fmt(value) if callable(fmt) else fmt.format(value)
+        except (TypeError, ValueError):
+            text = str(value)
+        lines.append((label, text))
+    width = max((len(label) for label, _ in lines), default=0)
+    return "\n".join(f"{label:<{width}}  {text}" for label, text in lines)

@@ -118,7 +118,12 @@ def choose(scene, tolerance_m: float, max_dt: float | None = None, fraction: flo
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("choose", help="coarsest whale and cheapest method for a tolerance")
+    p = subparsers.add_parser(
+        "choose", help="coarsest whale and cheapest method for a tolerance",
+        description="Pick the coarsest whale, the integrator and the step that keep the "
+        "surface error under a tolerance (for a coupled run a fraction of the flow cell size "
+        "at the whale, for a dry-run a stated tolerance), within the stable step and the "
+        "consumer's step; prints the choice and why (docs/numerics.md).")
     p.add_argument("--scene", help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset")
     p.add_argument("--cell-size", type=float, help="flow cell size at the whale (m): the "

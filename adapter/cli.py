@@ -26,11 +26,23 @@ _COMMAND_MODULES = (
 )
 
 
+def version() -> str:
+    """The installed distribution's version (pyproject.toml), or "unknown" (not installed)."""
+    from importlib.metadata import PackageNotFoundError
+    from importlib.metadata import version as dist_version
+
+    try:
+        return dist_version("whale-adapter")
+    except PackageNotFoundError:
+        return "unknown (not installed: pip install .)"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="whale-adapter",
         description="Spring-mass right whale animation coupled to OpenFOAM (see README.md).",
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {version()}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in _COMMAND_MODULES:
         try:

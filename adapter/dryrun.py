@@ -258,7 +258,11 @@ def _progress(total: int, enabled: bool):
 
 def register(subparsers) -> None:
     p = subparsers.add_parser("dry-run",
-                              help="animate the whale without fluid; write VTP, CSV, PNG")
+                              help="animate the whale without fluid; write VTP, CSV, PNG",
+                              description="Animate the spring-mass whale without fluid (no "
+                              "OpenFOAM needed) and write whale.pvd (a .vtp surface per frame), "
+                              "keypoints.csv, summary.json, keypoints.png and frames.png into "
+                              "--out (README.md, 'The dry-run').")
     p.add_argument("--scene", help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
     p.add_argument("--cycles", type=int, help="stroke cycles (default: scene output.cycles)")

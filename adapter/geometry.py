@@ -682,7 +682,11 @@ def build_surface(scene) -> WhaleSurface:
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("geometry", help="write the scene's whale surface (STL, OBJ, VTK)")
+    p = subparsers.add_parser(
+        "geometry", help="write the scene's whale surface (STL, OBJ, VTK)",
+        description="Build the scene's whale surface (the procedural right whale or the "
+        "scene's mesh file), check it (closed, manifold, outward) and write it to each --out "
+        "file, the format by suffix (docs/geometry.md).")
     p.add_argument("--scene", help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
     p.add_argument("--out", required=True, nargs="+", help="output file(s); format by suffix")

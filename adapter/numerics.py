@@ -449,7 +449,11 @@ def _json_num(x):
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "numerics", help="stable steps, orders, work-precision, resolution: PNG, CSV, JSON")
+        "numerics", help="stable steps, orders, work-precision, resolution: PNG, CSV, JSON",
+        description="The numerics study: predicted against measured stable steps of each "
+        "integrator, convergence orders, work against precision and error against "
+        "resolution, as charts, CSV and JSON in --out (docs/numerics.md; about 8 minutes, "
+        "--quick for a short version).")
     p.add_argument("--scene", help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
     p.add_argument("--out", required=True, help="output folder")

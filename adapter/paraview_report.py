@@ -7,8 +7,8 @@ display, see docs/paraview.md), printing the script's progress lines as they com
 DIR is either
 
 - a coupled case (``case.foam``, made by ``whale-adapter run-case``): the whale patch coloured by
-  p, the mid-plane slice y = 0 coloured by |U| and the adapter's ``adapter/whale.pvd`` as a
-  wireframe, or
+  p in Pa (OpenFOAM's kinematic p times rho from adapter-case.json), the mid-plane slice y = 0
+  coloured by |U| and the adapter's ``adapter/whale.pvd`` as a faint wireframe, or
 - a dry-run output folder (``whale.pvd``, made by ``whale-adapter dry-run``): the whale surface
   coloured by |displacement|.
 
@@ -135,6 +135,23 @@ def read_period(path: Path, kind: str) -> float | None:
     return None
 
 
+def read_rho(path: Path) -> float | None:
+    """The case's water density (kg/m3): adapter-case.json's ``rho_kg_m3``, else the forces
+    function's ``rhoInf`` in system/controlDict; None when neither has it."""
+    try:
+        value = json.loads((path / "adapter-case.json").read_text()).get("rho_kg_m3")
+        if value:
+            return float(value)
+    except (OSError, json.JSONDecodeError, AttributeError, TypeError, ValueError):
+        pass
+    try:
+        m = re.search(r"^\s*rhoInf\s+([-+0-9.eE]+)\s*;", (path / "system" / "controlDict")
+                      .read_text(), re.M)
+    except OSError:
+        return None
+    return float(m.group(1)) if m else None
+
+
 def _nearest(times: list, t: float) -> float:
     return min(times, key=lambda s: (abs(s - t), s))
 
@@ -168,7 +185,8 @@ def video_rate(times: list, period: float | None) -> int:
 
 
 def pvbatch_command(path: Path, out: Path, kind: str, times: list, *, case_type: str,
-                    size=(1600, 900), animation: bool = True, fps: int = 10) -> list:
+                    size=(1600, 900), animation: bool = True, fps: int = 10,
+                    rho: float | None = None) -> list:
     """The ``xvfb-run -a pvbatch report.py ...`` command line."""
     xvfb, pvbatch = find_paraview()
     # -a takes the first free display from -n on; starting from a number of our own keeps
@@ -180,6 +198,8 @@ def pvbatch_command(path: Path, out: Path, kind: str, times: list, *, case_type:
            "--times", *[repr(float(t)) for t in times]]
     if not animation:
         cmd.append("--no-animation")
+    if rho:
+        cmd += ["--rho", repr(float(rho))]
     return cmd
 
 
@@ -224,8 +244,8 @@ def render(path, out=None, times=None, *, size=(1600, 900), animation: bool = Tr
     stream : where the progress lines go.
     """
     path = Path(path).resolve()
+    find_paraview()            # first: nothing is written into a folder ParaView cannot draw
     kind = input_kind(path)
-    find_paraview()
     if kind == "case":
         case_type, written = case_layout(path)
     else:
@@ -243,7 +263,8 @@ def render(path, out=None, times=None, *, size=(1600, 900), animation: bool = Tr
     out = Path(out).resolve() if out else path / "paraview"
     out.mkdir(parents=True, exist_ok=True)
     cmd = pvbatch_command(path, out, kind, chosen, case_type=case_type, size=size,
-                          animation=animation, fps=video_rate(written, period))
+                          animation=animation, fps=video_rate(written, period),
+                          rho=read_rho(path) if kind == "case" else None)
     what = "coupled case" if kind == "case" else "dry-run"
     print(f"paraview: {what} {path}: {len(written)} written times, drawing "
           f"{', '.join(f'{t:.6g}' for t in chosen)} s" + (f" (T = {period:.4g} s)" if period

@@ -13,11 +13,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import tomllib
 import typing
 from dataclasses import dataclass, field
 from pathlib import Path
-
-import tomllib
 
 from .errors import SceneError
 
@@ -162,8 +161,11 @@ class Case:
     upstream: float = field(default=1.5, metadata={"check": _positive})
     downstream: float = field(default=3.0, metadata={"check": _positive})
     half_width: float = field(default=1.5, metadata={"check": _positive})
-    #: background blockMesh cell size (m)
-    background_cell_m: float = field(default=2.0, metadata={"check": _positive})
+    #: background blockMesh cell size, in body lengths (the body's own length: a 2.5 m animal
+    #: gets cells 2.5/15 the size of the 15 m whale's)
+    background_cell: float = field(default=2.0 / 15.0, metadata={"check": _positive})
+    #: the same in metres when > 0 (the older key): it wins over background_cell
+    background_cell_m: float = field(default=0.0, metadata={"check": _non_negative})
     #: snappyHexMesh surface refinement levels (min, max)
     refinement: tuple = field(default=(2, 4))
     #: simulated stroke cycles; end time = cycles / frequency unless end_time_s > 0

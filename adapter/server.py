@@ -782,12 +782,17 @@ class StepServer:
                 return
             f = self._keypoints()
             for k, row in rows:
+                fields = [repr(float(v)) for v in (k, *row.landmarks)]
+                forces = None
                 if len(row.forces) >= (self._n_ranks or 1):
                     forces = np.sum(list(row.forces.values()), axis=0)
+                if forces is not None and np.all(np.isfinite(forces)):
+                    fields += [repr(float(v)) for v in forces]
                 else:
-                    forces = np.full(6, np.nan)
-                values = [k, *row.landmarks, *forces]
-                f.write(",".join(repr(float(v)) for v in values) + "\n")
+                    # unknown (the first REQUEST after a restart carries no forces yet, or a
+                    # rank did not report): empty fields, never NaN
+                    fields += [""] * len(FORCE_COLUMNS)
+                f.write(",".join(fields) + "\n")
             f.flush()
 
     def _keypoints_header(self) -> str:

@@ -74,7 +74,7 @@ def run_swim_and_glide(case: Path, scene_record: dict, tolerance: float, ranks=N
                     " over the last stroke period")
         return None
 
-    g_summary = run_case(glide, ranks=ranks, progress=progress, stop_when=glide_steady)
+    g_summary = _run_unless_done(glide, ranks, progress, glide_steady)
     g_stats = _stats(glide, period, period)
     if g_stats is None or not len(g_stats.starts):
         raise AdapterError(f"the gliding run {glide} wrote no complete stroke period of loads; "
@@ -89,8 +89,47 @@ def run_swim_and_glide(case: Path, scene_record: dict, tolerance: float, ranks=N
                     f" {dp:.2%}, over the last two cycles")
         return None
 
-    s_summary = run_case(case, ranks=ranks, progress=progress, stop_when=swim_periodic)
+    s_summary = _run_unless_done(case, ranks, progress, swim_periodic)
     return answer(case, glide, scene_record, drag, tolerance, s_summary, g_summary)
+
+
+def _run_unless_done(case: Path, ranks, progress, criterion) -> dict:
+    """Run the case until ``criterion`` holds, unless its written loads already meet it (a
+    rerun of a finished pair only recomputes the figures)."""
+    summary_path = case / SUMMARY
+    if summary_path.is_file() and criterion(case):
+        print(f"{case}: {criterion(case)} (already reached: not run again)")
+        return json.loads(summary_path.read_text())
+    return run_case(case, ranks=ranks, progress=progress, stop_when=criterion)
+
+
+def yplus_over_run(case: Path) -> dict:
+    """Area-weighted y+ on the whale at every written time that has it: the worst fraction of
+    the area with y+ <= 300 (Spalding's wall function holds there) and the last time's
+    statistics (adapter/yplus.py)."""
+    from .yplus import yplus_stats
+
+    per_time = []
+    for p in sorted(case.iterdir(), key=lambda q: q.name):
+        try:
+            t = float(p.name)
+        except ValueError:
+            continue
+        if t > 0 and (p / "yPlus").is_file():
+            per_time.append((t, yplus_stats(case, p.name)))
+    if not per_time:
+        return {}
+    per_time.sort(key=lambda x: x[0])
+    last = per_time[-1][1]
+    return {
+        "times": len(per_time),
+        "worst_area_le_300": min(st["area_le_300"] for _, st in per_time),
+        "worst_area_30_300": min(st["area_30_300"] for _, st in per_time),
+        "fraction_le_300": last["area_le_300"],
+        "median": last["median"], "p5": last["p5"], "p95": last["p95"],
+        "time": last["time"],
+        "layer_area_coverage": last.get("layer_area_coverage"),
+    }
 
 
 def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
@@ -142,6 +181,8 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
     }
     summary = dict(s_summary)
     summary["swimming_cost"] = _finite(result)
+    summary["yplus"] = _finite(yplus_over_run(case))
+    summary["yplus_gliding"] = _finite(yplus_over_run(glide))
     _write_json(case / SUMMARY, summary)
     from .render import plot_forces
 
@@ -168,49 +209,28 @@ def _finite(obj):
     return obj
 
 
-#: the table run-case prints: (label, path in the summary, format)
-TABLE = (
-    ("gliding drag", "swimming_cost.gliding_drag_N", "{:.0f} N"),
-    ("  pressure / viscous", ("swimming_cost.gliding_drag_pressure_N",
-                              "swimming_cost.gliding_drag_viscous_N"), "{:.0f} / {:.0f} N"),
-    ("van der Hoop et al. model", "swimming_cost.van_der_hoop.drag_N", "{:.0f} N"),
-    ("swimming: mean Fx", "swimming_cost.swimming_mean_fx_N", "{:.0f} N"),
-    ("swimming: mean power into the water", "swimming_cost.swimming_mean_power_W", "{:.0f} W"),
-    ("Froude efficiency", "swimming_cost.froude_efficiency", "{:.2f}"),
-    ("cost of transport", "swimming_cost.cost_of_transport_J_kg_m", "{:.3g} J/(kg m)"),
-    ("mass (enclosed volume x 1025 kg/m3)", "swimming_cost.mass_kg", "{:.0f} kg"),
-    ("cycles measured after the start-up", "swimming_cost.cycles_measured", "{}"),
-    ("periodic (change of Fx, power)", ("swimming_cost.periodic_change.fx_of_gliding_drag",
-                                        "swimming_cost.periodic_change.power"),
-     "{:.1%}, {:.1%}"),
-    ("largest step |F| / RMS", "swimming_cost.spikes.max_force_over_rms", "{:.2f}"),
-    ("cells", "cells", "{}"),
-    ("steps, s per step", ("steps", "step_s"), "{}, {:.2f}"),
+#: the rows run-case prints after the pair (case.format_summary: label, key, format)
+COST_ROWS = [
+    ("gliding drag", "swimming_cost/gliding_drag_N", "{:.0f} N"),
+    ("  pressure part", "swimming_cost/gliding_drag_pressure_N", "{:.0f} N"),
+    ("  viscous part", "swimming_cost/gliding_drag_viscous_N", "{:.0f} N"),
+    ("van der Hoop et al. model", "swimming_cost/van_der_hoop/drag_N", "{:.0f} N"),
+    ("swimming: mean Fx", "swimming_cost/swimming_mean_fx_N", "{:.0f} N"),
+    ("swimming: mean power into the water", "swimming_cost/swimming_mean_power_W", "{:.0f} W"),
+    ("Froude efficiency", "swimming_cost/froude_efficiency", "{:.2f}"),
+    ("cost of transport", "swimming_cost/cost_of_transport_J_kg_m", "{:.3g} J/(kg m)"),
+    ("mass (enclosed volume x 1025 kg/m3)", "swimming_cost/mass_kg", "{:,.0f} kg"),
+    ("cycles measured after the start-up", "swimming_cost/cycles_measured", "{}"),
+    ("cycle-to-cycle change: Fx (of drag)", "swimming_cost/periodic_change/fx_of_gliding_drag",
+     "{:.1%}"),
+    ("cycle-to-cycle change: power", "swimming_cost/periodic_change/power", "{:.1%}"),
+    ("largest step |F| / RMS of |F|", "swimming_cost/spikes/max_force_over_rms", "{:.2f}"),
+    ("y+ <= 300: share of the area, worst write", "yplus/worst_area_le_300", "{:.1%}"),
+    ("y+ median (area-weighted, last write)", "yplus/median", "{:.0f}"),
+    ("cells", "cells", "{:,}"),
+    ("steps (swimming, this run)", "steps", "{}"),
+    ("wall time per step", "step_s", "{:.3g} s"),
     ("pimpleFoam wall time (swimming)", "flow_wall_s", "{:.0f} s"),
-)
-
-
-def _get(summary: dict, path: str):
-    v = summary
-    for part in path.split("."):
-        if not isinstance(v, dict) or part not in v:
-            return None
-        v = v[part]
-    return v
-
-
-def format_table(summary: dict) -> str:
-    """The summary as a short two-column table (rows with no value are left out)."""
-    lines = []
-    for label, paths, fmt in TABLE:
-        paths = paths if isinstance(paths, tuple) else (paths,)
-        values = [_get(summary, p) for p in paths]
-        if any(v is None for v in values):
-            continue
-        lines.append(f"  {label:<40} {fmt.format(*values)}")
-    return "\n".join(lines)
-
-
-def main_summary_text(case: Path) -> str:
-    summary = json.loads((case / SUMMARY).read_text())
-    return format_table(summary)
+    ("gliding: pimpleFoam wall time", "swimming_cost/gliding_run/flow_wall_s", "{:.0f} s"),
+    ("swimming stopped", "stopped_because", "{}"),
+]

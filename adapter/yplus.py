@@ -209,7 +209,7 @@ def face_area_vectors(points: np.ndarray, faces: list) -> np.ndarray:
     by_size: dict = {}
     for i, f in enumerate(faces):
         by_size.setdefault(len(f), []).append(i)
-    for size, idx in by_size.items():
+    for idx in by_size.values():
         lab = np.array([faces[i] for i in idx])
         p = points[lab]  # (n, size, 3)
         out[idx] = 0.5 * np.cross(p, np.roll(p, -1, axis=1)).sum(axis=1)

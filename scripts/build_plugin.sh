@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Build the OpenFOAM boundary condition stepServerDisplacement into
 #   build/lib/libstepServerDisplacement.so
+# (from an installed wheel: ~/.cache/whale-adapter/build/lib/; WHALE_BUILD_DIR overrides)
 #
 # Two ways, chosen automatically:
 #  1. $WM_PROJECT_DIR is set AND has wmake/ and src/OpenFOAM/lnInclude
@@ -21,9 +22,19 @@ say() { echo "build_plugin: [$((SECONDS - t0)) s] $*"; }
 die() { echo "build_plugin: ERROR: $*" >&2; exit 1; }
 done_msg() { say "$* (total $((SECONDS - t0)) s)"; }
 
-repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-plugin_src=$repo/adapter/openfoam/stepServerDisplacement
-build=$repo/build
+# Two layouts: the repository (scripts/build_plugin.sh, building into build/), or an installed
+# wheel (adapter/_scripts/build_plugin.sh, building into ~/.cache/whale-adapter/build, as
+# adapter/resources.py expects). WHALE_BUILD_DIR overrides the build folder in both.
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+if [ -d "$here/../adapter/openfoam/stepServerDisplacement" ]; then
+    repo=$(cd "$here/.." && pwd)
+    plugin_src=$repo/adapter/openfoam/stepServerDisplacement
+    build=${WHALE_BUILD_DIR:-$repo/build}
+else
+    plugin_src=$(cd "$here/../openfoam/stepServerDisplacement" 2>/dev/null && pwd) \
+        || die "plugin sources not found next to $here (neither the repository nor an installed wheel)"
+    build=${WHALE_BUILD_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/whale-adapter/build}
+fi
 libdir=$build/lib
 so=$libdir/libstepServerDisplacement.so
 force=0

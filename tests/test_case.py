@@ -53,7 +53,7 @@ def test_parameters_domain_and_cells():
     assert p.domain_min[2] + p.domain_max[2] == pytest.approx(0.0)
     for n, size, a, b in zip(p.cells, p.cell_size, p.domain_min, p.domain_max, strict=True):
         assert n * size == pytest.approx(b - a)
-        assert abs(size - c.background_cell_m) < 0.1 * c.background_cell_m
+        assert abs(size - c.background_cell * L) < 0.1 * c.background_cell * L
     assert p.smallest_cell_m == pytest.approx(min(p.cell_size) / 2 ** c.refinement[1])
     # the point snappyHexMesh keeps lies in the water: in the box, upstream of the whale
     assert p.domain_min[0] < p.location_in_mesh[0] < lo[0]
@@ -305,3 +305,143 @@ def test_static_smoke_run(tmp_path, smoke_mesh):
     written = [t for t, _ in C._time_dirs(case)]
     assert len(written) == 1 + record["parameters"]["n_steps"] // \
         record["parameters"]["steps_per_write"]
+
+
+# --- reruns, refusals, the summary table (issue 12) ---------------------------------------
+
+
+def test_fatal_error_text_is_taken_from_the_log():
+    log = """Time = 0.384
+
+[1]
+[1]
+[1] --> FOAM FATAL ERROR:
+[1] stepServer: REQUEST at time 0.384 s: the server closed the connection (did the server stop?)
+[1] socket /tmp/x/.whale-adapter.sock
+[1]
+[1]     From function void Foam::stepServerClient::exchange()
+[1]     in file stepServerClient.C at line 301.
+[1]
+FOAM parallel run exiting
+"""
+    assert C.fatal_error(log) == ("stepServer: REQUEST at time 0.384 s: the server closed the "
+                                  "connection (did the server stop?)\n"
+                                  "socket /tmp/x/.whale-adapter.sock")
+    assert C.fatal_error("Time = 1\nExecutionTime = 2 s\n") is None
+
+
+def test_format_summary_is_a_table_of_the_rows_present():
+    summary = {"case": "/tmp/c", "preset": "smoke", "static_whale": False, "cells": 4303,
+               "steps": 8, "end_time_s": 0.383, "adapter_s_per_step": 0.0125, "drag_N": None,
+               "worst_cell_quality": {"max_non_orthogonality_deg": 57.84}}
+    text = C.format_summary(summary)
+    lines = text.splitlines()
+    assert lines[0].split() == ["case", "/tmp/c"]
+    assert any(line.split()[-2:] == ["4,303"] or line.endswith(" 4,303") for line in lines)
+    assert "12.5 ms" in text and "57.8 deg" in text and "0.383 s" in text
+    assert "drag" not in text                                   # None: left out
+    assert not text.lstrip().startswith("{")                    # not JSON
+    # data-driven: another row list
+    assert C.format_summary({"x": 2.0}, rows=[("ex", "x", "{:.1f} m")]) == "ex  2.0 m"
+
+
+def test_run_case_refuses_a_foreign_folder_before_meshing(tmp_path, capsys):
+    from adapter.cli import main
+
+    case = tmp_path / "foreign"
+    shutil.copytree(C.TEMPLATE_DIR, case)        # a case folder, but not made by run-case
+    assert main(["run-case", "--case", str(case)]) == 2
+    err = capsys.readouterr().err
+    assert "adapter-case.json is missing" in err and "another" in err
+    assert not (case / "log.blockMesh").exists() and not (case / "constant" / "polyMesh").exists()
+
+
+@pytest.mark.openfoam
+@pytest.mark.slow
+@needs_openfoam
+def test_run_case_twice_with_the_same_preset_continues(tmp_path, capsys):
+    """What `make run-case SCENE=smoke CASE=DIR` does twice: the second run reuses the case;
+    another preset is refused, naming both."""
+    from adapter.cli import main
+
+    case = tmp_path / "twice"
+    args = ["run-case", "--preset", "smoke", "--static-whale", "--case", str(case)]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "largest non-orthogonality" in out and not out.rstrip().endswith("}")
+    end = C.read_record(case)["parameters"]["end_time"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert f"{case} already holds a case (preset smoke, static whale): continuing it from " \
+           f"t = {end:.6g} s" in out
+    assert "nothing to run" in out
+    assert main(["run-case", "--preset", "default", "--case", str(case)]) == 2
+    err = capsys.readouterr().err
+    assert "--preset default (recorded: preset smoke" in err and "another --case" in err
+
+
+# --- other animals: a body of another length ----------------------------------------------
+
+DOLPHIN_M = 2.5
+
+
+def _scaled_scene(tmp_path, surface, length_m):
+    """A scene on the smoke preset whose body is the smoke whale scaled to 2.5 m (rostrum to
+    the farthest x: a mesh file's length), as an STL."""
+    pts = surface.points - surface.points[surface.landmarks["rostrum"]]
+    pts = pts * (DOLPHIN_M / pts[:, 0].max())
+    from adapter.geometry import write_surface
+
+    write_surface(tmp_path / "dolphin.stl", pts, surface.faces)
+    marks = "\n".join(f"{name} = [{float(p[0])!r}, {float(p[1])!r}, {float(p[2])!r}]"
+                      for name, p in ((n, pts[i]) for n, i in surface.landmarks.items()))
+    path = tmp_path / "dolphin.toml"
+    path.write_text(f'preset = "smoke"\n[geometry]\nsource = "dolphin.stl"\n'
+                    f"length_m = {length_m}\n[geometry.landmarks]\n{marks}\n")
+    return load_scene(path)
+
+
+def test_a_mesh_file_of_another_length_is_refused_naming_both(tmp_path, smoke_surface):
+    scene = _scaled_scene(tmp_path, smoke_surface, 15.0)
+    with pytest.raises(AdapterError, match=r"is 2\.5 m long .* geometry\.length_m = 15 m"):
+        C.prepare_case(scene, tmp_path / "case", static_whale=True)
+    assert not (tmp_path / "case").exists()
+
+
+def test_cell_sizes_follow_the_body_length(tmp_path, smoke, smoke_surface):
+    from adapter.geometry import build_surface
+
+    scene = _scaled_scene(tmp_path, smoke_surface, DOLPHIN_M)
+    surface = build_surface(scene)
+    assert surface.length == pytest.approx(DOLPHIN_M)
+    pts = surface.points
+    p = C.case_parameters(scene, pts.min(axis=0), pts.max(axis=0), length=surface.length)
+    whale = C.case_parameters(smoke, smoke_surface.points.min(axis=0),
+                              smoke_surface.points.max(axis=0), length=smoke_surface.length)
+    # about the same mesh, scaled (the procedural whale's L = 15 m leaves out the flukes'
+    # overhang; a mesh file's length is rostrum to the farthest x)
+    assert np.abs(np.array(p.cells) - whale.cells).max() <= 2
+    assert p.smallest_cell_m == pytest.approx(whale.smallest_cell_m * DOLPHIN_M / 15.0,
+                                              rel=0.1)
+    # the older key, in metres, still wins when set
+    metres = scene.replace(case={"background_cell_m": 4.0})
+    assert C.case_parameters(metres, pts.min(axis=0), pts.max(axis=0),
+                             length=surface.length).smallest_cell_m == pytest.approx(1.0, rel=0.1)
+
+
+@pytest.mark.openfoam
+@pytest.mark.slow
+@needs_openfoam
+def test_a_smaller_animal_meshes_and_runs_on_the_smoke_preset(tmp_path, smoke_surface):
+    """A 2.5 m closed mesh on the smoke preset: cells scale with the body, so it meshes with a
+    whale patch like the 15 m whale's, and a static run goes to the end."""
+    scene = _scaled_scene(tmp_path, smoke_surface, DOLPHIN_M)
+    case = tmp_path / "case"
+    params = C.prepare_case(scene, case, static_whale=True, scene_file=tmp_path / "dolphin.toml")
+    assert params.smallest_cell_m < 0.2
+    assert params.domain_max[0] - params.domain_min[0] == pytest.approx(
+        (1 + scene.case.upstream + scene.case.downstream) * DOLPHIN_M, rel=0.05)
+    info = C.mesh_case(case)
+    assert info["whale_faces"] > 50
+    summary = C.run_case(case, progress=False)
+    assert summary["steps"] == C.read_record(case)["parameters"]["n_steps"]

@@ -99,6 +99,31 @@ def test_missing_paraview_says_how_to_install(monkeypatch):
         R.find_paraview()
 
 
+def test_missing_paraview_is_found_before_anything_is_written(monkeypatch, tmp_path):
+    case = tmp_path / "case"
+    (case / "system").mkdir(parents=True)
+    (case / "system" / "controlDict").write_text("")
+    (case / "constant" / "polyMesh").mkdir(parents=True)
+    monkeypatch.setattr(R.shutil, "which", lambda name: None)
+    with pytest.raises(R.ParaViewError, match="make paraview-deps"):
+        R.render(case)
+    assert not (case / "case.foam").exists() and not (case / "paraview").exists()
+
+
+def test_pressure_in_pascal_from_the_case_record(monkeypatch, tmp_path):
+    (tmp_path / "system").mkdir()
+    assert R.read_rho(tmp_path) is None
+    (tmp_path / "system" / "controlDict").write_text(
+        "functions\n{\n    forces\n    {\n        rho rhoInf;\n        rhoInf 1000;\n    }\n}\n")
+    assert R.read_rho(tmp_path) == 1000.0                        # an older case: controlDict
+    (tmp_path / "adapter-case.json").write_text(json.dumps({"rho_kg_m3": 1025.0}))
+    assert R.read_rho(tmp_path) == 1025.0
+    monkeypatch.setattr(R, "find_paraview", lambda: ("xvfb-run", "pvbatch"))
+    cmd = R.pvbatch_command(tmp_path, tmp_path / "out", "case", [0.1], case_type="Reconstructed",
+                            rho=1025.0)
+    assert cmd[cmd.index("--rho") + 1] == "1025.0"
+
+
 # --------------------------------------------------------------------------------------------
 # with ParaView: the pictures
 
@@ -288,3 +313,7 @@ def test_animation_and_state(which, request):
         assert state["mid-plane slice y=0"][1] > 100
         assert state["adapter whale.pvd"][0] == "PVDReader"
         assert state["adapter whale.pvd"][1] > state["whale patch"][1]
+        # pressure in Pa, said in the colour bar's title
+        assert report["p_unit"] == "Pa" and report["rho_kg_m3"] == 1025.0
+        assert "p (Pa)" in report["p_title"]
+        assert "whale p in Pa" in state

@@ -124,6 +124,24 @@ def test_two_ranks_share_points_and_steps(case, serve, animator, points):
     assert srv.stats["steps"] == 3 and srv.stats["requests"] == 6
 
 
+def test_unknown_forces_leave_the_csv_fields_empty_never_nan(case, serve, points):
+    """After a restart OpenFOAM's first REQUEST carries no forces (NaN): keypoints.csv gets
+    empty force fields for that row, never the text nan."""
+    srv = serve(case)
+    c = Client(case)
+    c.hello(points)
+    c.request(TIMES[0])                                           # NaN forces
+    c.request(TIMES[1], (1, 2, 3), (0.1, 0.2, 0.3))
+    c.bye()
+    assert finished(srv) == 0
+    text = (case / "adapter" / "keypoints.csv").read_text()
+    assert "nan" not in text.lower()
+    rows = [r.split(",") for r in text.splitlines()[1:]]
+    assert len(rows) == 2 and all(len(r) == 1 + 18 + 6 for r in rows)
+    assert rows[0][-6:] == [""] * 6 and all(rows[0][:19])
+    assert np.array(rows[1], dtype=float)[-6:].tolist() == [1, 2, 3, 0.1, 0.2, 0.3]
+
+
 def test_write_outputs_read_back(case, serve, animator, points, reference):
     import pyvista as pv
 

@@ -6,8 +6,9 @@ Started by ``whale-adapter paraview`` (:mod:`adapter.paraview_report`) as::
         --times 0.19 0.38 [--case-type Reconstructed] [--size 1600 900] [--no-animation]
 
 ``--kind case``: ParaView's OpenFOAM reader on ``DIR/case.foam`` (regions internalMesh and
-patch/whale); the whale patch coloured by p, a slice at the mid-plane y = 0 coloured by |U|, and
-the adapter's ``DIR/adapter/whale.pvd`` as a dark wireframe over the patch (when present).
+patch/whale); the whale patch coloured by p (in Pa, rho p, with ``--rho``; else kinematic, m2/s2),
+a slice at the mid-plane y = 0 coloured by |U|, and the adapter's ``DIR/adapter/whale.pvd`` as a
+thin, faint wireframe over the patch (when present).
 ``--kind surface``: ``DIR/whale.pvd`` alone (a dry-run), coloured by |displacement|.
 
 Writes into OUT: ``side_t<t>.png`` and ``angled_t<t>.png`` at each ``--times`` value (the
@@ -54,6 +55,8 @@ def parse_args(argv):
     p.add_argument("--size", type=int, nargs=2, default=(1600, 900), metavar=("W", "H"))
     p.add_argument("--no-animation", action="store_true")
     p.add_argument("--fps", type=int, default=10, help="video frame rate")
+    p.add_argument("--rho", type=float, default=None,
+                   help="water density (kg/m3): p is drawn in Pa (rho p); without it kinematic")
     return p.parse_args(argv)
 
 
@@ -197,23 +200,34 @@ def build_case(args, view, meta):
     cut.SliceType.Origin = [0.0, 0.0, 0.0]
     cut.SliceType.Normal = [0.0, 1.0, 0.0]
 
+    # OpenFOAM's incompressible p is kinematic (p / rho, m2/s2): drawn in Pa when rho is known
+    p_source, p_name, p_unit = whale, "p", "m2/s2"
+    p_title = "p / rho (m2/s2, kinematic), whale"
+    if args.rho:
+        p_source = pvs.Calculator(registrationName="whale p in Pa", Input=whale)
+        p_source.AttributeType = "Point Data"
+        p_source.ResultArrayName = p_name = "p_Pa"
+        p_source.Function = f"{args.rho!r}*p"
+        p_unit, p_title = "Pa", f"p (Pa), whale (rho = {args.rho:g} kg/m3)"
+
     t0 = time.perf_counter()
-    p_lo, p_hi = array_range(whale, "POINTS", "p", 0, times)
+    p_lo, p_hi = array_range(p_source, "POINTS", p_name, 0, times)
     p_max = max(abs(p_lo), abs(p_hi)) or 1.0
     p_rng = (-p_max, p_max)
     u_rng = array_range(cut, "POINTS", "U", -1, times)
     u_rng = (0.0, u_rng[1] or 1.0)
     bounds = union_bounds(whale, times)
-    say(f"colour ranges over {len(times)} times: p {p_lo:.4g} .. {p_hi:.4g} m2/s2 (shown "
+    say(f"colour ranges over {len(times)} times: p {p_lo:.4g} .. {p_hi:.4g} {p_unit} (shown "
         f"+-{p_max:.3g}), |U| 0 .. {u_rng[1]:.4g} m/s ({time.perf_counter() - t0:.1f} s)")
 
     cut_display = pvs.Show(cut, view)
     colour_by(cut_display, view, "U", "Magnitude", u_rng, "Viridis (matplotlib)",
               "U magnitude (m/s), slice y = 0")
     pvs.GetScalarBar(pvs.GetColorTransferFunction("U"), view).WindowLocation = "Upper Right Corner"
-    whale_display = pvs.Show(whale, view)
-    colour_by(whale_display, view, "p", 0, p_rng, "Cool to Warm", "p (m2/s2), whale")
-    pvs.GetScalarBar(pvs.GetColorTransferFunction("p"), view).WindowLocation = "Lower Right Corner"
+    whale_display = pvs.Show(p_source, view)
+    colour_by(whale_display, view, p_name, 0, p_rng, "Cool to Warm", p_title)
+    pvs.GetScalarBar(pvs.GetColorTransferFunction(p_name), view).WindowLocation = \
+        "Lower Right Corner"
     sources = {"reader": "case.foam", "whale": "whale patch", "slice": "mid-plane slice y=0"}
 
     pvd = os.path.join(args.input, "adapter", "whale.pvd")
@@ -222,10 +236,12 @@ def build_case(args, view, meta):
         surf = pvs.PVDReader(registrationName="adapter whale.pvd", FileName=pvd)
         adapter_times = list(surf.TimestepValues)
         d = pvs.Show(surf, view)
+        # thin, faint lines: the match with the patch shows, the pressure colours stay visible
         d.Representation = "Wireframe"
-        d.AmbientColor = [0.1, 0.1, 0.1]
-        d.DiffuseColor = [0.1, 0.1, 0.1]
-        d.Opacity = 0.5
+        d.AmbientColor = [0.25, 0.25, 0.25]
+        d.DiffuseColor = [0.25, 0.25, 0.25]
+        d.LineWidth = 1.0
+        d.Opacity = 0.15
         pvs.ColorBy(d, None)
         sources["adapter"] = "adapter whale.pvd"
         # the animation follows the case's written times, not the union with the surface's
@@ -235,7 +251,8 @@ def build_case(args, view, meta):
     else:
         say(f"no {pvd} (a static-whale case?): the adapter surface is not drawn")
     meta.update({"colour_ranges": {"p": list(p_rng), "U_magnitude": list(u_rng)},
-                 "data_range": {"p": [p_lo, p_hi]}, "adapter_times": adapter_times})
+                 "data_range": {"p": [p_lo, p_hi]}, "adapter_times": adapter_times,
+                 "p_unit": p_unit, "p_title": p_title, "rho_kg_m3": args.rho})
     return times, bounds, sources
 
 
