@@ -278,6 +278,14 @@ def _write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool
     near = max(0, c.refinement[0] - 1)
     cm["refinementRegions"]["nearWhale"]["levels"] = f"(({near} {near}))"
     cm["locationInMesh"] = _vector(p.location_in_mesh)
+    d["addLayers"] = c.layers > 0
+    lc = d["addLayersControls"]
+    lc["layers"] = {"whale": {"nSurfaceLayers": c.layers}} if c.layers > 0 else {}
+    lc["relativeSizes"] = False
+    lc["firstLayerThickness"] = c.first_layer_m
+    lc["expansionRatio"] = c.layer_expansion
+    # the smallest layer thickness kept: a third of the first layer's
+    lc["minThickness"] = c.first_layer_m / 3
     d.writeFile()
 
     d = _parsed(case / "system" / "controlDict")
@@ -381,9 +389,13 @@ def run_utility(case_dir, args: list, log_name: str | None = None) -> Path:
 
 
 def _restore_zero(case: Path) -> None:
+    """Copy the initial fields of 0.orig that 0/ lacks (snappyHexMesh -overwrite writes its
+    layer fields nSurfaceLayers, thickness, thicknessFraction into 0/ first; they stay)."""
     zero = case / "0"
-    if not zero.exists():
-        shutil.copytree(case / "0.orig", zero)
+    zero.mkdir(exist_ok=True)
+    for f in (case / "0.orig").iterdir():
+        if f.is_file() and not (zero / f.name).exists():
+            shutil.copy2(f, zero / f.name)
 
 
 def mesh_case(case_dir) -> dict:
@@ -401,6 +413,7 @@ def mesh_case(case_dir) -> dict:
     log = run_utility(case, ["checkMesh"])
     info = parse_check_mesh(log.read_text(errors="replace"))
     info["mesh_s"] = round(time.perf_counter() - t0, 2)
+    info.update(layer_record(case))
     if not info.get("whale_faces"):
         raise SolverRunError(f"snappyHexMesh made no whale patch; see {case / 'log.snappyHexMesh'}"
                              " (is locationInMesh in the water?)")
@@ -411,6 +424,32 @@ def mesh_case(case_dir) -> dict:
         record["mesh"] = info
         _write_json(record_path, record)
     return info
+
+
+def layer_record(case_dir) -> dict:
+    """The whale's prism layers after snappyHexMesh: ``{"layers": {...}}`` with the log's table
+    (``faces``, ``faces_with_layers``, ``face_coverage``, ``mean_layers``, ``thickness_m``,
+    ``thickness_pct``) and the area-weighted coverage from the ``nSurfaceLayers`` field
+    (``area_with_layers``, ``area_full_thickness``); empty when the case has no layers."""
+    from .yplus import layer_coverage, parse_layer_report
+
+    case = Path(case_dir)
+    log = case / "log.snappyHexMesh"
+    report = parse_layer_report(log.read_text(errors="replace")).get("whale") \
+        if log.is_file() else None
+    if not report:
+        return {}
+    try:
+        cov = layer_coverage(case, "whale")
+    except AdapterError:
+        cov = {}
+    for key in ("area_with_layers", "area_full_thickness"):
+        if key in cov:
+            report[key] = round(cov[key], 4)
+    for key in ("face_coverage",):
+        if key in report:
+            report[key] = round(report[key], 4)
+    return {"layers": report}
 
 
 def parse_check_mesh(text: str) -> dict:

@@ -169,6 +169,11 @@ class Case:
     ranks: int = field(default=1, metadata={"check": lambda v: v >= 1})
     #: stop before cells invert: largest non-orthogonality (deg) allowed
     max_non_orthogonality: float = field(default=80.0, metadata={"check": lambda v: 0 < v < 90})
+    #: snappyHexMesh prism layers on the whale (0: none), the first (wall) layer's absolute
+    #: thickness (m) and the thickness ratio of neighbouring layers
+    layers: int = field(default=3, metadata={"check": lambda v: 0 <= v <= 20})
+    first_layer_m: float = field(default=0.008, metadata={"check": _positive})
+    layer_expansion: float = field(default=1.5, metadata={"check": lambda v: 1.0 <= v <= 3.0})
 
 
 @dataclass(frozen=True)
