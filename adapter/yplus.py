@@ -211,7 +211,7 @@ def face_area_vectors(points: np.ndarray, faces: list) -> np.ndarray:
         by_size.setdefault(len(f), []).append(i)
     for idx in by_size.values():
         lab = np.array([faces[i] for i in idx])
-        p = points[lab]  # (n, size, 3)
+        p = points[lab]  # (n, vertices, 3)
         out[idx] = 0.5 * np.cross(p, np.roll(p, -1, axis=1)).sum(axis=1)
     return out
 
