@@ -47,6 +47,8 @@ FOAM_DIR = "/usr/share/openfoam"
 CASE_RECORD = "adapter-case.json"
 SUMMARY = "adapter-summary.json"
 SOCKET_NAME = ".whale-adapter.sock"
+#: the regions surface the loads function object reads (constant/triSurface/)
+REGIONS_STL = "whale_regions.stl"
 #: inflow turbulence: intensity and free-stream eddy-viscosity ratio
 TURBULENCE_INTENSITY = 0.01
 EDDY_VISCOSITY_RATIO = 10.0
@@ -254,6 +256,10 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     shutil.copytree(TEMPLATE_DIR, case, dirs_exist_ok=True)
     stl = case / "constant" / "triSurface" / "whale.stl"
     surface.write(stl)
+    # the same triangles as three solids (body, flippers, flukes) for the loads' regions; a
+    # second file, as snappyHexMesh makes one patch per solid (whale_body, ...) of a
+    # multi-solid STL and the whale must stay one patch
+    surface.write_regions_stl(stl.with_name(REGIONS_STL))
     pts = np.asarray(surface.points)
     params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
                              length=surface.length)

@@ -34,6 +34,10 @@ LANDMARKS = (
 #: where the tail base (fluke hinge, the paper's point C) sits, fraction of L
 TAIL_BASE_S = 0.92
 
+#: the body regions the loads are split into (docs/geometry.md), by index
+REGIONS = ("body", "flippers", "flukes")
+BODY, FLIPPERS, FLUKES = 0, 1, 2
+
 # Side-view depth, fraction of L, by distance from the rostrum (Daoust et al. 2018, digitised
 # from a necropsy drawing); the ends close the nose and the tail stock.
 _DEPTH = {0.0: 0.0, 0.01: 0.035, 0.025: 0.062, 0.05: 0.093, 0.10: 0.123, 0.20: 0.156,
@@ -68,6 +72,9 @@ class WhaleSurface:
     landmarks : name -> node index, for every name in :data:`LANDMARKS`.
     length : body length L (m), rostrum to tail end along x.
     origin : position of the rostrum's axis point; s = (x - origin[0]) / length.
+    face_regions : None, or a list parallel to ``faces``: the region index (:data:`REGIONS`)
+        each face was built as (the procedural whale: its flipper and fluke fins); None for a
+        mesh file (:meth:`triangle_regions` then finds the flippers geometrically).
     """
 
     points: np.ndarray
@@ -75,6 +82,7 @@ class WhaleSurface:
     landmarks: dict
     length: float
     origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    face_regions: list | None = None
 
     @property
     def n_nodes(self) -> int:
@@ -101,6 +109,42 @@ class WhaleSurface:
         t = self.triangles
         a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
         return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+
+    def triangle_regions(self) -> np.ndarray:
+        """(T,) int region index (:data:`REGIONS`) of every triangle of :attr:`triangles`.
+
+        Flukes: triangles whose centroid lies behind the tail base (s > s of the landmark
+        ``tail_base``, the animator's fluke gate). Flippers (of the rest): the faces built as
+        flippers when :attr:`face_regions` is known (the procedural whale), else the geometric
+        rule of :func:`flipper_triangles`. Body: everything else.
+        """
+        tri = self.triangles
+        centroid = self.points[tri].mean(axis=1)
+        s_c = (centroid[:, 0] - self.origin[0]) / self.length
+        if self.face_regions is not None:
+            per_tri = [r if f.shape[1] == 3 else np.concatenate([r, r])
+                       for f, r in zip(self.faces, self.face_regions, strict=True)]
+            flippers = np.concatenate(per_tri) == FLIPPERS
+        else:
+            flippers = flipper_triangles(self.points, tri, self.landmarks, self.origin,
+                                         self.length)
+        out = np.full(len(tri), BODY, dtype=np.int64)
+        out[flippers] = FLIPPERS
+        out[s_c > float(self.s[self.landmarks["tail_base"]])] = FLUKES
+        return out
+
+    def region_areas(self) -> dict:
+        """Area (m2) of every region of :meth:`triangle_regions`."""
+        p, tri = self.points, self.triangles
+        area = 0.5 * np.linalg.norm(np.cross(p[tri[:, 1]] - p[tri[:, 0]],
+                                             p[tri[:, 2]] - p[tri[:, 0]]), axis=1)
+        reg = self.triangle_regions()
+        return {name: float(area[reg == k].sum()) for k, name in enumerate(REGIONS)}
+
+    def write_regions_stl(self, path: str | Path) -> None:
+        """An ASCII STL with one solid per region, named as :data:`REGIONS` (the whaleLoads
+        function object's ``regions`` surface; docs/openfoam-plugin.md)."""
+        write_region_stl(path, self.points, self.triangles, self.triangle_regions())
 
     def write(self, path: str | Path, point_data: dict | None = None) -> None:
         """Write the surface; the format follows the suffix (STL, OBJ, VTK, VTU, VTP, PLY ...).
@@ -136,6 +180,117 @@ def write_surface(path, points, faces, point_data=None) -> None:
                        point_data=dict(point_data or {}))
     kwargs = {"binary": True} if suffix == ".stl" else {}
     mesh.write(str(path), **kwargs)
+
+
+def write_region_stl(path, points, triangles, regions, names=REGIONS) -> None:
+    """ASCII STL, one solid per name (in this order, empty ones included) holding the
+    triangles of that region index; outward normals."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    p = np.asarray(points, dtype=np.float64)
+    lines = []
+    for k, name in enumerate(names):
+        tri = triangles[regions == k]
+        a, b, c = p[tri[:, 0]], p[tri[:, 1]], p[tri[:, 2]]
+        n = np.cross(b - a, c - a)
+        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+        lines.append(f"solid {name}")
+        for nv, va, vb, vc in zip(n, a, b, c, strict=True):
+            lines.append("  facet normal {:.9e} {:.9e} {:.9e}".format(*nv))
+            lines.append("    outer loop")
+            for v in (va, vb, vc):
+                lines.append("      vertex {!r} {!r} {!r}".format(*map(float, v)))
+            lines.append("    endloop")
+            lines.append("  endfacet")
+        lines.append(f"endsolid {name}")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def read_stl_solids(path) -> dict:
+    """The triangles of every solid of an ASCII STL: ``{name: (T, 3, 3) array}``, in file
+    order (a name given twice gathers both)."""
+    solids: dict = {}
+    current = None
+    verts: list = []
+    for line in Path(path).read_text().splitlines():
+        words = line.split()
+        if not words:
+            continue
+        if words[0] == "solid":
+            current = words[1] if len(words) > 1 else ""
+            solids.setdefault(current, [])
+        elif words[0] == "vertex":
+            verts.append([float(v) for v in words[1:4]])
+        elif words[0] == "endloop":
+            solids[current].append(verts)
+            verts = []
+    return {k: np.array(v, dtype=np.float64).reshape(-1, 3, 3) for k, v in solids.items()}
+
+
+#: how far (factor on the section's ellipse) a triangle must stick out of the body's section to
+#: count as a flipper's (flipper_triangles)
+FLIPPER_MARGIN = 1.05
+
+
+def flipper_triangles(points, triangles, landmarks, origin, length, bins: int = 100):
+    """Flipper triangles of a mesh file without region information (a geometric rule).
+
+    A triangle is a flipper's when its centroid (a) lies within the flipper's reach: closer to
+    the landmark ``flipper_left`` or ``flipper_right`` (the flipper tips) than that tip is to
+    the body's axis (the x line through the rostrum), and (b) lies outside the body's section
+    at its station: outside the ellipse whose half-width is the body's largest |y - y_rostrum|
+    there and whose half-heights are those of the midline (dorsal above, ventral below the
+    middle height). The section of a station (one of ``bins`` slices of s, empty slices
+    interpolated, each widened to the largest of it and its two neighbours) comes from the
+    nodes near the midline (the heights) and the nodes above the middle height (the width),
+    where a right whale's flippers, rooted low on the flanks, are not; the ellipse is centred
+    at the height of the widest such node and grown by :data:`FLIPPER_MARGIN`. The flipper's
+    root, on the body's section, counts as body.
+    """
+    p = np.asarray(points, dtype=np.float64)
+    centroid = p[triangles].mean(axis=1)
+    y0 = float(origin[1])
+    centres = (np.arange(bins) + 0.5) / bins
+
+    def slice_of(x):
+        return np.clip(((x - origin[0]) / length * bins).astype(int), 0, bins - 1)
+
+    def per_slice(values, which, op, fill):
+        out = np.full(bins, fill)
+        op.at(out, b_n[which], values[which])
+        ok = np.isfinite(out) & (out != fill)
+        return np.interp(centres, centres[ok], out[ok]) if ok.any() else out
+
+    def widened(x):
+        return np.maximum(np.maximum(x, np.r_[x[:1], x[:-1]]), np.r_[x[1:], x[-1:]])
+
+    b_n = slice_of(p[:, 0])
+    ay = np.abs(p[:, 1] - y0)
+    ymax = per_slice(ay, np.ones(len(p), bool), np.maximum, -np.inf)
+    mid = ay <= 0.25 * ymax[b_n]
+    zlo = per_slice(p[:, 2], mid, np.minimum, np.inf)
+    zhi = per_slice(p[:, 2], mid, np.maximum, -np.inf)
+    zmid = 0.5 * (zlo + zhi)
+    upper = p[:, 2] >= zmid[b_n]
+    half = per_slice(ay, upper, np.maximum, -np.inf)
+    # the ellipse's centre: the height of the section's widest upper node
+    zc = zmid.copy()
+    for k in np.unique(b_n[upper]):
+        sel = np.flatnonzero(upper & (b_n == k))
+        zc[k] = p[sel[np.argmax(ay[sel])], 2]
+    half = widened(half)
+    up, down = widened(zhi - zc), widened(zc - zlo)
+    b_c = slice_of(centroid[:, 0])
+    dz = centroid[:, 2] - zc[b_c]
+    height = np.where(dz >= 0, up[b_c], down[b_c])
+    outside = ((np.abs(centroid[:, 1] - y0) / np.maximum(half[b_c], 1e-300)) ** 2
+               + (dz / np.maximum(height, 1e-300)) ** 2) > FLIPPER_MARGIN ** 2
+    out = np.zeros(len(triangles), bool)
+    for name in ("flipper_left", "flipper_right"):
+        tip = p[landmarks[name]]
+        reach = float(np.hypot(tip[1] - y0, tip[2] - origin[2]))
+        out |= outside & (np.linalg.norm(centroid - tip, axis=1) < reach)
+    return out
 
 
 def triangulate(points: np.ndarray, faces: list) -> np.ndarray:
@@ -454,8 +609,12 @@ def _fin_layers(f: _Fin, loop_xyz: np.ndarray, inner_rc: list) -> tuple[np.ndarr
     return layers, np.array(tip).reshape(-1, 3)
 
 
-def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float = 0.32):
-    """Build the procedural right whale: (points, faces, landmarks).
+def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float = 0.32,
+                     with_regions: bool = False):
+    """Build the procedural right whale: (points, faces, landmarks), and with ``with_regions``
+    a fourth item, ``face_regions``: per face group the region index (:data:`REGIONS`) each
+    face was built as: the flipper fins' extrusion layers and tip caps FLIPPERS, the fluke
+    fins' FLUKES, the rest BODY.
 
     ``nodes`` is met to within a ring of the body (about 0.6 % at the default 11,272).
     """
@@ -539,6 +698,7 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
     )
     removed = set()
     new_quads = []
+    new_regions = []
     next_index = n_body + 2
     fin_tips = {}
     for name, fin, loop_rc, inner_rc in (
@@ -567,10 +727,12 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
                 next_index += P
                 pts.append(layers[k])
                 layer_idx.append(idx)
+            region = FLIPPERS if name == "flipper" else FLUKES
             for k in range(fin.layers):
                 lo, hi = layer_idx[k], layer_idx[k + 1]
                 for m in range(P):
                     new_quads.append((lo[m], lo[(m + 1) % P], hi[(m + 1) % P], hi[m]))
+                    new_regions.append(region)
             # the tip cap re-uses the patch's quads: boundary nodes become the last layer
             remap = dict(zip(loop_idx.tolist(), layer_idx[-1].tolist(), strict=True))
             for a in range(fin.ring0, fin.ring0 + fin.a):
@@ -578,6 +740,7 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
                     q = [node(a, mj(b)), node(a + 1, mj(b)), node(a + 1, mj(b + 1)),
                          node(a, mj(b + 1))]
                     new_quads.append(tuple(remap.get(v, v) for v in q))
+                    new_regions.append(region)
             # move the interior patch nodes to the tip
             pts[0][inner_idx] = tip
             tip_candidates = np.concatenate([layer_idx[-1], inner_idx])
@@ -600,6 +763,11 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
         "fluke_tip_left": farthest(fin_tips[("fluke", 1)], np.array([0.0, 1.0, 0.0])),
         "fluke_tip_right": farthest(fin_tips[("fluke", -1)], np.array([0.0, -1.0, 0.0])),
     }
+    if with_regions:
+        face_regions = [np.full(len(tris), BODY, dtype=np.int64),
+                        np.concatenate([np.full(len(body_quads), BODY, dtype=np.int64),
+                                        np.array(new_regions, dtype=np.int64)])]
+        return points, faces, lm, face_regions
     return points, faces, lm
 
 
@@ -663,9 +831,11 @@ def build_surface(scene) -> WhaleSurface:
     """The scene's whale surface, checked (closed, manifold, oriented outward)."""
     g = scene.geometry
     if g.source == "procedural":
-        points, faces, landmarks = procedural_whale(g.length_m, g.nodes, g.fluke_span)
+        points, faces, landmarks, face_regions = procedural_whale(
+            g.length_m, g.nodes, g.fluke_span, with_regions=True)
         length = g.length_m
         origin = np.zeros(3)
+        # orientation flips rows in place: the regions stay parallel to the faces
         faces = validate_surface(points, faces, length)
     else:
         points, faces = read_surface(scene.resolve(g.source))
@@ -678,7 +848,8 @@ def build_surface(scene) -> WhaleSurface:
             raise GeometryError(
                 "the mesh must lie along +x from its rostrum (x grows toward the tail)"
             )
-    return WhaleSurface(points, faces, landmarks, length, origin)
+        face_regions = None
+    return WhaleSurface(points, faces, landmarks, length, origin, face_regions)
 
 
 def register(subparsers) -> None:

@@ -79,6 +79,29 @@ def cycle_stats(t: np.ndarray, fx: np.ndarray, power: np.ndarray, period: float,
     return CycleStats(np.array(starts), np.array(mfx), np.array(mp))
 
 
+def region_figures(swim: dict, glide: dict, period: float, start_up: float,
+                   patch: str = "whale", names=("body", "flippers", "flukes")) -> dict:
+    """Per body region (the ``<patch>.<region>`` groups of loads.dat): mean Fx and mean power
+    over the last whole swimming cycle after ``start_up``, the mean gliding drag over the last
+    whole period after the first (the windows of the totals, so the regions add up to them),
+    and the region's area (m2, at the last swimming step). Regions without columns are left
+    out; ``{}`` for a run without regions."""
+    out = {}
+    for name in names:
+        fx, power = f"{patch}.{name}:Fx", f"{patch}.{name}:P"
+        if fx not in swim or power not in swim:
+            continue
+        st = cycle_stats(swim["Time"], swim[fx], swim[power], period, start_up)
+        entry = {"fx_N": float(st.mean_fx[-1]) if len(st.starts) else float("nan"),
+                 "power_W": float(st.mean_power[-1]) if len(st.starts) else float("nan"),
+                 "area_m2": float(swim[f"{patch}.{name}:A"][-1])}
+        if glide and fx in glide:
+            gs = cycle_stats(glide["Time"], glide[fx], glide[power], period, period)
+            entry["gliding_drag_N"] = float(gs.mean_fx[-1]) if len(gs.starts) else float("nan")
+        out[name] = entry
+    return out
+
+
 def periodic_change(stats: CycleStats, force_scale: float) -> tuple[float, float]:
     """(change of mean Fx / force_scale, relative change of mean power) between the last two
     cycles; NaN with fewer than two. Mean Fx can be near zero for a swimmer, so its change is

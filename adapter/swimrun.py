@@ -11,8 +11,9 @@
 
 From the loads of both (adapter/loads.py): mean drag gliding, mean Fx and power swimming,
 Froude efficiency and cost of transport, with the spike checks and van der Hoop et al.'s
-reference drag. Written into ``<case>/adapter-summary.json`` under ``"swimming_cost"`` and
-drawn in ``<case>/forces.png``.
+reference drag; the drag, Fx and power also per body region (body, flippers, flukes:
+``swimming_cost/regions``). Written into ``<case>/adapter-summary.json`` under
+``"swimming_cost"`` and drawn in ``<case>/forces.png``.
 """
 
 from __future__ import annotations
@@ -174,6 +175,8 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
                    "drop_1pct_fx_of_gliding_drag": spikes["drop_1pct_fx_N"] / abs(drag),
                    "drop_1pct_power": spikes["drop_1pct_power_W"]
                    / abs(st.mean_power[-1])},
+        # per body region (whale.body, whale.flippers, whale.flukes): same windows
+        "regions": ld.region_figures(data, gd, period, ramp),
         "van_der_hoop": ref,
         "gliding_vs_van_der_hoop": drag / ref["drag_N"] - 1.0,
         "gliding_run": {k: g_summary.get(k) for k in ("steps", "flow_wall_s", "end_time_s",
@@ -217,6 +220,9 @@ COST_ROWS = [
     ("van der Hoop et al. model", "swimming_cost/van_der_hoop/drag_N", "{:.0f} N"),
     ("swimming: mean Fx", "swimming_cost/swimming_mean_fx_N", "{:.0f} N"),
     ("swimming: mean power into the water", "swimming_cost/swimming_mean_power_W", "{:.0f} W"),
+    *[row for name in ("body", "flippers", "flukes") for row in (
+        (f"  {name}: gliding drag", f"swimming_cost/regions/{name}/gliding_drag_N", "{:.0f} N"),
+        (f"  {name}: mean power", f"swimming_cost/regions/{name}/power_W", "{:.0f} W"))],
     ("Froude efficiency", "swimming_cost/froude_efficiency", "{:.2f}"),
     ("cost of transport", "swimming_cost/cost_of_transport_J_kg_m", "{:.3g} J/(kg m)"),
     ("mass (enclosed volume x 1025 kg/m3)", "swimming_cost/mass_kg", "{:,.0f} kg"),

@@ -16,7 +16,13 @@ next to ``whaleLoads`` on the same patches. Checked at every time step:
   the step, not omega x r, so the relation holds to 1e-3 (measured 1e-4) only;
 - the patches' values sum to the totals;
 - the translation again on two MPI ranks (body_left and body_right split between them): the
-  same checks hold for the sums over the ranks.
+  same checks hold for the sums over the ranks;
+- body regions (the ``regions`` entry): the same mesh and motion with the square's four sides as
+  ONE patch ``whale``, covered by a hand-written 3-solid ASCII STL (``sides``, ``front``,
+  ``back``, a little larger than the square): the groups ``whale.<solid>`` sum to the total
+  (1e-12) and each equals the stock ``forces`` function object of the four-patch case on the
+  patches that solid covers (body_lower + body_upper, body_left, body_right), with ``P = -F .
+  u`` per region and the exact areas; serial and on two ranks.
 
 Skipped without pimpleFoam or without the built library (scripts/build_plugin.sh).
 """
@@ -63,7 +69,35 @@ def _quad(a: tuple, b: tuple) -> str:
     return f"({_v(*a, 0)} {_v(*b, 0)} {_v(*b, 1)} {_v(*a, 1)})"
 
 
-def _block_mesh_dict() -> str:
+#: the solids of the regions STL (in the file's order) and the patches of the four-patch case
+#: that each covers
+REGIONS = {"sides": ["body_lower", "body_upper"], "front": ["body_left"],
+           "back": ["body_right"]}
+#: half-side and z range of the STL's square tube: a little off the mesh's faces, so the labels
+#: come from a nearest-triangle search, not from coincidence
+_STL_HALF, _STL_Z = 0.26, (-0.05, 0.15)
+
+
+def _regions_stl() -> str:
+    """Three solids: the square's lower and upper sides, its upstream side, its downstream side
+    (two triangles per side)."""
+    h, (z0, z1) = _STL_HALF, _STL_Z
+    sides = {"sides": [((-h, -h), (h, -h)), ((h, h), (-h, h))], "front": [((-h, h), (-h, -h))],
+             "back": [((h, -h), (h, h))]}
+    out = []
+    for name, edges in sides.items():
+        out.append(f"solid {name}")
+        for (xa, ya), (xb, yb) in edges:
+            a, b, c, d = (xa, ya, z0), (xb, yb, z0), (xb, yb, z1), (xa, ya, z1)
+            for tri in ((a, b, c), (a, c, d)):
+                out.append("  facet normal 0 0 0\n    outer loop")
+                out += [f"      vertex {x} {y} {z}" for x, y, z in tri]
+                out.append("    endloop\n  endfacet")
+        out.append(f"endsolid {name}")
+    return "\n".join(out) + "\n"
+
+
+def _block_mesh_dict(merged: bool = False) -> str:
     verts = " ".join(f"({x} {y} {z})" for z in (0, 0.1) for y in _YS for x in _XS)
     blocks, planes = [], []
     for j in range(3):
@@ -85,8 +119,14 @@ def _block_mesh_dict() -> str:
         "body_upper": ("wall", [_quad((1, 2), (2, 2))]),
         "frontAndBack": ("empty", planes),
     }
+    if merged:
+        # the four sides as one patch, their faces in the same order (same face numbering)
+        faces = [f for name in PATCHES for f in side.pop(name)[1]]
+        side = {k: v for k, v in side.items() if k != "frontAndBack"} | {
+            "whale": ("wall", faces), "frontAndBack": side["frontAndBack"]}
     boundary = "\n".join(
-        f"{name} {{ type {kind}; {'inGroups (body);' if name.startswith('body') else ''} "
+        f"{name} {{ type {kind}; "
+        f"{'inGroups (body);' if name.startswith('body') or name == 'whale' else ''} "
         f"faces ({' '.join(faces)}); }}" for name, (kind, faces) in side.items())
     return (_HEADER.format(cls="dictionary", obj="blockMeshDict")
             + f"convertToMeters 1;\nvertices ({verts});\nblocks ({' '.join(blocks)});\n"
@@ -107,7 +147,24 @@ def _motion(kind: str) -> str:
             + f"solver solidBody;\nsolidBodyCoeffs {{ {coeffs} }}\n")
 
 
-def _control_dict(lib) -> str:
+def _forces(name: str, patches: str) -> str:
+    return f"""
+    {name}
+    {{
+        type forces; libs ("libforces.so");
+        patches ({patches}); rho rhoInf; rhoInf 1025; CofR (0 0 0);
+        writeControl timeStep; writeInterval 1; log false;
+    }}"""
+
+
+def _control_dict(lib, merged: bool = False) -> str:
+    if merged:
+        loads_extra = 'regions "$FOAM_CASE/constant/triSurface/regions.stl";'
+        truth = ""
+    else:
+        # the stock forces on the patches each region covers
+        loads_extra = ""
+        truth = "".join(_forces(f"forces_{r}", " ".join(p)) for r, p in REGIONS.items())
     return (_HEADER.format(cls="dictionary", obj="controlDict") + f"""
 application pimpleFoam; startFrom startTime; startTime 0; stopAt endTime;
 endTime {N_STEPS * DT}; deltaT {DT}; writeControl timeStep; writeInterval {N_STEPS};
@@ -119,13 +176,8 @@ functions
     {{
         type whaleLoads; libs ("{lib}");
         patches (body); rhoInf 1025; writeControl timeStep; writeInterval 1;
-    }}
-    forces
-    {{
-        type forces; libs ("libforces.so");
-        patches ("body_.*"); rho rhoInf; rhoInf 1025; CofR (0 0 0);
-        writeControl timeStep; writeInterval 1; log false;
-    }}
+        {loads_extra}
+    }}{_forces("forces", "body")}{truth}
 }}
 """)
 
@@ -171,14 +223,19 @@ boundaryField
 }
 
 
-def make_case(case, motion: str, lib=C.PLUGIN_LIB) -> None:
-    """Write the test case for ``motion`` ("translate" or "rotate") into ``case``."""
+def make_case(case, motion: str, lib=C.PLUGIN_LIB, merged: bool = False) -> None:
+    """Write the test case for ``motion`` ("translate" or "rotate") into ``case``; ``merged``:
+    the body is one patch ``whale`` with the regions STL."""
     for rel, (cls, body) in _FILES.items():
         path = case / rel
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(_HEADER.format(cls=cls, obj=path.name) + body)
-    (case / "system" / "blockMeshDict").write_text(_block_mesh_dict())
-    (case / "system" / "controlDict").write_text(_control_dict(lib))
+    (case / "system" / "blockMeshDict").write_text(_block_mesh_dict(merged))
+    (case / "system" / "controlDict").write_text(_control_dict(lib, merged))
+    if merged:
+        stl = case / "constant" / "triSurface" / "regions.stl"
+        stl.parent.mkdir(parents=True, exist_ok=True)
+        stl.write_text(_regions_stl())
     (case / "constant" / "dynamicMeshDict").write_text(_motion(motion))
 
 
@@ -209,9 +266,10 @@ _DECOMPOSE = ("numberOfSubdomains 2; method hierarchical;\n"
               "coeffs { n (1 2 1); }   // splits body_left and body_right between the ranks\n")
 
 
-def run_case(tmp_path_factory, motion: str, ranks: int = 1):
-    case = tmp_path_factory.mktemp(f"loads-{motion}-{ranks}")
-    make_case(case, motion)
+def _run(tmp_path_factory, motion: str, ranks: int = 1, merged: bool = False):
+    """Make and run a case; its folder."""
+    case = tmp_path_factory.mktemp(f"loads-{motion}-{ranks}{'-regions' if merged else ''}")
+    make_case(case, motion, merged=merged)
     C.run_utility(case, ["blockMesh"])
     if ranks == 1:
         C.run_utility(case, ["pimpleFoam"])
@@ -221,10 +279,26 @@ def run_case(tmp_path_factory, motion: str, ranks: int = 1):
         C.run_utility(case, ["decomposePar"])
         C.run_utility(case, ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", "2",
                              "pimpleFoam", "-parallel"], log_name="pimpleFoam")
+    return case
+
+
+def run_case(tmp_path_factory, motion: str, ranks: int = 1):
+    case = _run(tmp_path_factory, motion, ranks)
     names, rows = read_loads(case)
     post = case / "postProcessing" / "forces" / "0"
     force, moment = _read_vectors(post / "force.dat"), _read_vectors(post / "moment.dat")
     return names, rows, force, moment
+
+
+def run_regions(tmp_path_factory, ranks: int = 1):
+    """The translation with the body as one patch and the regions STL: (names, rows, log of
+    pimpleFoam); and the four-patch case's stock forces per region: {region: force rows}."""
+    case = _run(tmp_path_factory, "translate", ranks, merged=True)
+    names, rows = read_loads(case)
+    truth_case = _run(tmp_path_factory, "translate", ranks)
+    truth = {r: _read_vectors(truth_case / "postProcessing" / f"forces_{r}" / "0" / "force.dat")
+             for r in REGIONS}
+    return names, rows, (case / "log.pimpleFoam").read_text(), truth
 
 
 @pytest.fixture(scope="module")
@@ -302,3 +376,55 @@ def test_patches_sum_to_the_total(request, which):
         np.testing.assert_allclose(sum(p[c] for p in parts), tot[c], rtol=0, atol=1e-12 * scale)
     for p in parts:
         np.testing.assert_allclose(p["A"], 0.5 * 0.1, rtol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def regions_1(tmp_path_factory):
+    return run_regions(tmp_path_factory)
+
+
+@pytest.fixture(scope="module")
+def regions_2(tmp_path_factory):
+    if shutil.which("mpirun") is None:
+        pytest.skip("mpirun is not on PATH")
+    return run_regions(tmp_path_factory, ranks=2)
+
+
+@pytest.mark.parametrize("which", ["regions_1", "regions_2"])
+def test_region_groups_follow_the_patch_and_sum_to_it(request, which):
+    names, rows, log, _ = request.getfixturevalue(which)
+    groups = ["total", "whale"] + [f"whale.{r}" for r in REGIONS]    # solids in file order
+    assert names == ["Time"] + [f"{g}:{c}" for g in groups for c in COLUMNS]
+    # 8 cells along each side of the hole: 16 faces on the lower and upper sides, 8 on each end
+    assert "regions sides (16 faces) front (8 faces) back (8 faces)" in log
+    tot = _group(names, rows, "total")
+    parts = [_group(names, rows, f"whale.{r}") for r in REGIONS]
+    for c in COLUMNS:
+        scale = max(np.abs(tot[c]).max(), 1e-300)
+        np.testing.assert_allclose(sum(p[c] for p in parts), tot[c], rtol=0, atol=1e-12 * scale,
+                                   err_msg=c)
+
+
+@pytest.mark.parametrize("which", ["regions_1", "regions_2"])
+def test_each_region_equals_the_stock_forces_on_its_patches(request, which):
+    names, rows, _, truth = request.getfixturevalue(which)
+    t = rows[:, 0]
+    x = np.outer(np.sin(OMEGA_TRANSLATE * t), AMPLITUDE)
+    x_prev = np.outer(np.sin(OMEGA_TRANSLATE * (t - DT)), AMPLITUDE)
+    u = (x - x_prev) / DT
+    areas = {"sides": 2 * 0.5 * 0.1, "front": 0.5 * 0.1, "back": 0.5 * 0.1}
+    for r, ref in truth.items():
+        g = _group(names, rows, f"whale.{r}")
+        np.testing.assert_array_equal(ref[:, 0], t)
+        F = _vec(g, "F")
+        assert np.linalg.norm(F, axis=1).min() > 1, r                 # N: a real load
+        # the same solution on the same mesh and face numbering, one patch or four: measured
+        # 2e-16 of the largest force
+        for got, cols in ((F, slice(1, 4)), (_vec(g, "Fp"), slice(4, 7)),
+                          (_vec(g, "Fv"), slice(7, 10))):
+            np.testing.assert_allclose(got, ref[:, cols], rtol=0,
+                                       atol=1e-12 * np.abs(ref[:, 1:4]).max(), err_msg=r)
+        scale = np.linalg.norm(F, axis=1) * np.linalg.norm(u, axis=1)
+        np.testing.assert_allclose(g["P"], -np.sum(F * u, axis=1), rtol=0,
+                                   atol=1e-9 * scale.max(), err_msg=r)
+        np.testing.assert_allclose(g["A"], areas[r], rtol=1e-12, err_msg=r)

@@ -15,6 +15,7 @@
 #include "volFields.H"
 #include "surfaceFields.H"
 #include "addToRunTimeSelectionTable.H"
+#include <algorithm>
 
 // * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * * //
 
@@ -49,6 +50,34 @@ namespace
 
 // * * * * * * * * * * * * Private Member Functions  * * * * * * * * * * * * //
 
+Foam::label Foam::functionObjects::whaleLoads::nRegions() const
+{
+    return regionsPtr_.valid() ? regionsPtr_->names().size() : 0;
+}
+
+
+Foam::wordList Foam::functionObjects::whaleLoads::groupNames() const
+{
+    wordList groups;
+    for (const label patchi : patchIDs_)
+    {
+        groups.append(mesh_.boundaryMesh()[patchi].name());
+    }
+    for (const label patchi : patchIDs_)
+    {
+        for (label r = 0; r < nRegions(); ++r)
+        {
+            groups.append
+            (
+                mesh_.boundaryMesh()[patchi].name() + "."
+              + regionsPtr_->names()[r]
+            );
+        }
+    }
+    return groups;
+}
+
+
 Foam::List<Foam::scalarField>
 Foam::functionObjects::whaleLoads::calcLoads() const
 {
@@ -70,7 +99,13 @@ Foam::functionObjects::whaleLoads::calcLoads() const
             << exit(FatalError);
     }
 
-    List<scalarField> values(patchIDs_.size(), scalarField(NVALUES, Zero));
+    const label nPatches = patchIDs_.size();
+    const label nR = nRegions();
+    List<scalarField> values
+    (
+        nPatches*(1 + nR),
+        scalarField(NVALUES, Zero)
+    );
 
     forAll(patchIDs_, i)
     {
@@ -78,6 +113,7 @@ Foam::functionObjects::whaleLoads::calcLoads() const
         const vectorField fp(loads.pressure(patchi));
         const vectorField fv(loads.viscous(patchi));
         const vectorField& Ub = UPtr->boundaryField()[patchi];
+        const scalarField& magSf = mesh_.magSf().boundaryField()[patchi];
 
         const vector Fp(sum(fp));
         const vector Fv(sum(fv));
@@ -92,7 +128,25 @@ Foam::functionObjects::whaleLoads::calcLoads() const
         // negated: the power the body delivers to the fluid
         v[PP] = -sum(fp & Ub);
         v[PV] = -sum(fv & Ub);
-        v[AREA] = sum(mesh_.magSf().boundaryField()[patchi]);
+        v[AREA] = sum(magSf);
+
+        // The same sums over the faces of each region
+        if (nR)
+        {
+            const labelList& regions = regionsPtr_->faceRegions(i);
+            forAll(regions, facei)
+            {
+                scalarField& w = values[nPatches + i*nR + regions[facei]];
+                for (direction d = 0; d < vector::nComponents; ++d)
+                {
+                    w[FP + d] += fp[facei][d];
+                    w[FV + d] += fv[facei][d];
+                }
+                w[PP] -= fp[facei] & Ub[facei];
+                w[PV] -= fv[facei] & Ub[facei];
+                w[AREA] += magSf[facei];
+            }
+        }
     }
 
     Pstream::listCombineGather(values, plusEqOp<scalarField>());
@@ -118,10 +172,7 @@ void Foam::functionObjects::whaleLoads::createFile()
     writeCommented(os, "Time");
 
     wordList groups(1, word("total"));
-    for (const label patchi : patchIDs_)
-    {
-        groups.append(mesh_.boundaryMesh()[patchi].name());
-    }
+    groups.append(groupNames());
     for (const word& group : groups)
     {
         for (const char* col : columns)
@@ -179,6 +230,8 @@ Foam::functionObjects::whaleLoads::whaleLoads
     rhoInf_(1025),
     pName_("p"),
     UName_("U"),
+    regionsFile_(),
+    regionsPtr_(),
     filePtr_()
 {
     read(dict);
@@ -212,12 +265,25 @@ bool Foam::functionObjects::whaleLoads::read(const dictionary& dict)
     pName_ = dict.getOrDefault<word>("p", "p");
     UName_ = dict.getOrDefault<word>("U", "U");
 
+    // The faces' regions are (re)made at the next execution
+    regionsFile_.clear();
+    regionsPtr_.clear();
+    if (dict.readIfPresent("regions", regionsFile_))
+    {
+        regionsFile_.expand();
+    }
+
     Info<< type() << " " << name() << ": patches";
     for (const label patchi : patchIDs_)
     {
         Info<< " " << mesh_.boundaryMesh()[patchi].name();
     }
-    Info<< ", rhoInf " << rhoInf_ << endl;
+    Info<< ", rhoInf " << rhoInf_;
+    if (!regionsFile_.empty())
+    {
+        Info<< ", regions from " << regionsFile_;
+    }
+    Info<< endl;
 
     return true;
 }
@@ -225,12 +291,32 @@ bool Foam::functionObjects::whaleLoads::read(const dictionary& dict)
 
 bool Foam::functionObjects::whaleLoads::execute()
 {
+    if (!regionsFile_.empty() && !regionsPtr_.valid())
+    {
+        regionsPtr_.reset(new whaleRegions(regionsFile_, mesh_, patchIDs_));
+        Info<< type() << " " << name() << ": regions";
+        forAll(regionsPtr_->names(), r)
+        {
+            label n = 0;
+            forAll(patchIDs_, i)
+            {
+                const labelList& l = regionsPtr_->faceRegions(i);
+                n += label(std::count(l.begin(), l.end(), r));
+            }
+            Info<< " " << regionsPtr_->names()[r] << " ("
+                << returnReduce(n, sumOp<label>()) << " faces)";
+        }
+        Info<< ", face centres at most " << regionsPtr_->maxDistance()
+            << " m from " << regionsFile_ << endl;
+    }
+
     const List<scalarField> values(calcLoads());
+    const wordList groups(groupNames());
 
     scalarField total(NVALUES, Zero);
-    for (const scalarField& v : values)
+    forAll(patchIDs_, i)
     {
-        total += v;
+        total += values[i];
     }
 
     if (Pstream::master())
@@ -243,9 +329,9 @@ bool Foam::functionObjects::whaleLoads::execute()
     }
 
     writeGroup("total", total);
-    forAll(patchIDs_, i)
+    forAll(groups, i)
     {
-        writeGroup(mesh_.boundaryMesh()[patchIDs_[i]].name(), values[i]);
+        writeGroup(groups[i], values[i]);
     }
 
     if (filePtr_.valid())
