@@ -20,7 +20,7 @@ def _quintic(x):
 def test_without_springs_the_body_follows_the_closed_form_target(smoke_scene, smoke_surface):
     """Springs off: every moving node is where profile * r(t) sin(w t) / w puts it (but for
     the nodes next to the pitching fluke gate, which the damping between nodes drags)."""
-    scene = smoke_scene.replace(springs={"stiffness_scale": 1e-9})
+    scene = smoke_scene.replace(springs={"stiffness_scale": 1e-9}, stroke={"ramp_cycles": 1.0})
     a = Animator(scene, smoke_surface)
     away = a.dynamic & (a.surface.s < a.tail_base_s - 0.05)
     T, w = a.period, 2 * math.pi / a.period
@@ -92,7 +92,7 @@ def test_fluke_pitch_is_a_smooth_spline_through_the_table(smoke_animator):
 def smooth_summary(tmp_path_factory):
     from adapter.scene import load_scene
 
-    scene = load_scene(preset="smoke")
+    scene = load_scene(preset="smoke").replace(stroke={"ramp_cycles": 1.0})  # the default's
     return dryrun.run(scene, tmp_path_factory.mktemp("smooth"), cycles=3, progress=False,
                       write_files=False)
 
