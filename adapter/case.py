@@ -205,7 +205,8 @@ def _time_precision(dt: float) -> int:
 # preparing
 
 
-def _parsed(path: Path):
+def parsed_dict(path: Path):
+    """An OpenFOAM dictionary as PyFoam's ParsedParameterFile (``writeFile()`` writes it back)."""
     from PyFoam.RunDictionary.ParsedParameterFile import ParsedParameterFile
 
     # comments are dropped: PyFoam re-attaches them to the wrong entries when it writes
@@ -288,7 +289,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         "surface_nodes": int(len(pts)),
         "parameters": asdict(params),
     }
-    _write_json(case / CASE_RECORD, record)
+    write_json(case / CASE_RECORD, record)
     return params
 
 
@@ -311,14 +312,14 @@ def _check_length(scene, surface) -> None:
 
 def _write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool) -> None:
     c = scene.case
-    d = _parsed(case / "system" / "blockMeshDict")
+    d = parsed_dict(case / "system" / "blockMeshDict")
     for axis, lo, hi, n in zip("xyz", p.domain_min, p.domain_max, p.cells, strict=True):
         d[f"{axis}min"] = lo
         d[f"{axis}max"] = hi
         d[f"n{axis}"] = n
     d.writeFile()
 
-    d = _parsed(case / "system" / "snappyHexMeshDict")
+    d = parsed_dict(case / "system" / "snappyHexMeshDict")
     d["geometry"]["nearWhale"]["min"] = _vector(p.near_box_min)
     d["geometry"]["nearWhale"]["max"] = _vector(p.near_box_max)
     cm = d["castellatedMeshControls"]
@@ -336,7 +337,7 @@ def _write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool
     lc["minThickness"] = c.first_layer_m / 3
     d.writeFile()
 
-    d = _parsed(case / "system" / "controlDict")
+    d = parsed_dict(case / "system" / "controlDict")
     lib = f'"{_plugin_lib()}"'
     if static_whale and not _plugin_lib().is_file():
         # a flow-only case without the plugin library: no loads function object either
@@ -353,22 +354,22 @@ def _write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool
     d["functions"]["forces"]["rhoInf"] = scene.flow.rho_kg_m3
     d.writeFile()
 
-    d = _parsed(case / "system" / "decomposeParDict")
+    d = parsed_dict(case / "system" / "decomposeParDict")
     d["numberOfSubdomains"] = p.ranks
     d["coeffs"]["n"] = f"({p.ranks} 1 1)"
     d.writeFile()
 
-    d = _parsed(case / "constant" / "transportProperties")
+    d = parsed_dict(case / "constant" / "transportProperties")
     d["nu"] = scene.flow.nu_m2_s
     d.writeFile()
 
-    d = _parsed(case / "constant" / "turbulenceProperties")
+    d = parsed_dict(case / "constant" / "turbulenceProperties")
     d["simulationType"] = "laminar" if c.turbulence == "laminar" else "RAS"
     d["RAS"]["RASModel"] = "kOmegaSST"
     d.writeFile()
 
     zero = case / "0.orig"
-    d = _parsed(zero / "U")
+    d = parsed_dict(zero / "U")
     d["Uinlet"] = _vector((scene.flow.speed_m_s, 0.0, 0.0))
     if p.inflow_ramp_s > 0:
         # still water, the inflow ramped in smoothly: no impulsive start
@@ -379,13 +380,13 @@ def _write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool
             "value": "uniform (0 0 0)",
         }
     d.writeFile()
-    d = _parsed(zero / "k")
+    d = parsed_dict(zero / "k")
     d["kInlet"] = p.k_inlet
     d.writeFile()
-    d = _parsed(zero / "omega")
+    d = parsed_dict(zero / "omega")
     d["omegaInlet"] = p.omega_inlet
     d.writeFile()
-    d = _parsed(zero / "pointDisplacement")
+    d = parsed_dict(zero / "pointDisplacement")
     if static_whale:
         d["boundaryField"]["whale"] = {"type": "fixedValue", "value": "uniform (0 0 0)"}
     else:
@@ -416,7 +417,7 @@ def _plugin_lib() -> Path:
     return Path(os.environ.get("WHALE_PLUGIN_LIB", PLUGIN_LIB))
 
 
-def _write_json(path: Path, data: dict) -> None:
+def write_json(path: Path, data: dict) -> None:
     path.write_text(json.dumps(data, indent=2) + "\n")
 
 
@@ -497,7 +498,7 @@ def mesh_case(case_dir) -> dict:
     if record_path.is_file():
         record = json.loads(record_path.read_text())
         record["mesh"] = info
-        _write_json(record_path, record)
+        write_json(record_path, record)
     return info
 
 
@@ -686,7 +687,8 @@ class _Progress:
 # running the case
 
 
-def _time_dirs(case: Path) -> list:
+def time_dirs(case: Path) -> list:
+    """``[(time, folder), ...]`` of a case's time folders, earliest first."""
     out = []
     for p in case.iterdir():
         if p.is_dir():
@@ -707,7 +709,7 @@ def _processor_latest(case: Path) -> float | None:
     """The latest time every processor folder holds, or None (no processor folders)."""
     common = None
     for p in _processor_dirs(case):
-        names = {d.name for _, d in _time_dirs(p)}
+        names = {d.name for _, d in time_dirs(p)}
         common = names if common is None else common & names
     return max((float(n) for n in common), default=None) if common else None
 
@@ -715,7 +717,7 @@ def _processor_latest(case: Path) -> float | None:
 def _trim_processor_times(case: Path, latest: float) -> None:
     """Remove the processor time folders after ``latest`` (a time only some ranks wrote)."""
     for p in _processor_dirs(case):
-        for t, d in _time_dirs(p):
+        for t, d in time_dirs(p):
             if t > latest:
                 shutil.rmtree(d)
 
@@ -724,7 +726,7 @@ def resume_time(case_dir) -> float:
     """The time a run of the case starts from: its latest written time, in the case folder or
     (after a parallel run that stopped before reconstructPar) in every processor folder."""
     case = Path(case_dir)
-    times = _time_dirs(case)
+    times = time_dirs(case)
     serial = times[-1][0] if times else 0.0
     procs = _processor_latest(case)
     return serial if procs is None else max(serial, procs)
@@ -830,7 +832,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
         record = read_record(case)
     _restore_zero(case)
     if ranks > 1:
-        d = _parsed(case / "system" / "decomposeParDict")
+        d = parsed_dict(case / "system" / "decomposeParDict")
         d["numberOfSubdomains"] = ranks
         d["coeffs"]["n"] = f"({ranks} 1 1)"
         d.writeFile()
@@ -839,7 +841,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
         raise SolverRunError(f"the boundary condition library {_plugin_lib()} is missing; build "
                              f"it with `bash {resources.BUILD_SCRIPT}` (or point "
                              "WHALE_PLUGIN_LIB at a built one)")
-    times = _time_dirs(case)
+    times = time_dirs(case)
     serial_latest = times[-1][0] if times else 0.0
     ranks_latest = _processor_latest(case)
     from_ranks = ranks_latest is not None and ranks_latest > serial_latest
@@ -849,7 +851,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
         run_utility(case, ["reconstructPar", "-newTimes"])
         from_ranks = False
     start_time = resume_time(case)
-    control = _parsed(case / "system" / "controlDict")
+    control = parsed_dict(case / "system" / "controlDict")
     end_time = float(control["endTime"])
     if start_time >= end_time - 0.5 * float(control["deltaT"]):
         return _finished(case, record, ranks, from_ranks, t_start)
@@ -899,7 +901,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
         stopped = None
     if stopped:
         summary["stopped"] = stopped
-    _write_json(case / SUMMARY, summary)
+    write_json(case / SUMMARY, summary)
     if stopped:
         raise SolverRunError(f"{stopped}; the run stopped at t = {summary['end_time_s']:.4g} s "
                              f"with a written mesh; see {case / SUMMARY}")
@@ -917,7 +919,7 @@ def _finished(case: Path, record: dict, ranks: int, from_ranks: bool, t_start: f
     watch = LogWatch(case / "log.pimpleFoam")
     watch.poll()
     summary = summarise(case, watch, record, ranks, 0.0, time.perf_counter() - t_start)
-    _write_json(case / SUMMARY, summary)
+    write_json(case / SUMMARY, summary)
     return summary
 
 
@@ -1071,7 +1073,7 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
         # refuses a folder not made by run-case before anything (blockMesh) touches it
         record = read_record(case)
         _check_same_case(case, record, args)
-        t0, control = resume_time(case), _parsed(case / "system" / "controlDict")
+        t0, control = resume_time(case), parsed_dict(case / "system" / "controlDict")
         print(f"{case} already holds a case ({_recorded(record)}): "
               f"continuing it from t = {t0:.6g} s")
         if t0 >= float(control["endTime"]) - 0.5 * float(control["deltaT"]):

@@ -24,7 +24,7 @@ import shutil
 from pathlib import Path
 
 from . import loads as ld
-from .case import SUMMARY, _parsed, _write_json, read_record, run_case
+from .case import SUMMARY, parsed_dict, read_record, run_case, time_dirs, write_json
 from .errors import AdapterError
 
 GLIDING = "gliding"
@@ -42,12 +42,12 @@ def prepare_gliding(case: Path) -> Path:
     shutil.copytree(case / "0.orig", glide / "0")
     record = read_record(case)
     record["static_whale"] = True
-    _write_json(glide / "adapter-case.json", record)
+    write_json(glide / "adapter-case.json", record)
     for zero in ("0", "0.orig"):
-        d = _parsed(glide / zero / "pointDisplacement")
+        d = parsed_dict(glide / zero / "pointDisplacement")
         d["boundaryField"]["whale"] = {"type": "fixedValue", "value": "uniform (0 0 0)"}
         d.writeFile()
-    d = _parsed(glide / "constant" / "dynamicMeshDict")
+    d = parsed_dict(glide / "constant" / "dynamicMeshDict")
     d["dynamicFvMesh"] = "staticFvMesh"
     d.writeFile()
     return glide
@@ -71,8 +71,8 @@ def run_swim_and_glide(case: Path, scene_record: dict, tolerance: float, ranks=N
         st = _stats(c, period, period)
         if st is not None and len(st.starts) >= 2 and ld.is_periodic(
                 st, st.mean_fx[-1], tolerance):
-            return (f"steady: mean drag changed {ld.periodic_change(st, st.mean_fx[-1])[0]:.2%}"
-                    " over the last stroke period")
+            change = ld.periodic_change(st, st.mean_fx[-1])[0]
+            return f"steady: mean drag changed {change:.2%} over the last stroke period"
         return None
 
     g_summary = _run_unless_done(glide, ranks, progress, glide_steady)
@@ -98,8 +98,9 @@ def _run_unless_done(case: Path, ranks, progress, criterion) -> dict:
     """Run the case until ``criterion`` holds, unless its written loads already meet it (a
     rerun of a finished pair only recomputes the figures)."""
     summary_path = case / SUMMARY
-    if summary_path.is_file() and criterion(case):
-        print(f"{case}: {criterion(case)} (already reached: not run again)")
+    reached = criterion(case) if summary_path.is_file() else None
+    if reached:
+        print(f"{case}: {reached} (already reached: not run again)")
         return json.loads(summary_path.read_text())
     return run_case(case, ranks=ranks, progress=progress, stop_when=criterion)
 
@@ -110,17 +111,10 @@ def yplus_over_run(case: Path) -> dict:
     statistics (adapter/yplus.py)."""
     from .yplus import yplus_stats
 
-    per_time = []
-    for p in sorted(case.iterdir(), key=lambda q: q.name):
-        try:
-            t = float(p.name)
-        except ValueError:
-            continue
-        if t > 0 and (p / "yPlus").is_file():
-            per_time.append((t, yplus_stats(case, p.name)))
+    per_time = [(t, yplus_stats(case, p.name)) for t, p in time_dirs(case)
+                if t > 0 and (p / "yPlus").is_file()]
     if not per_time:
         return {}
-    per_time.sort(key=lambda x: x[0])
     last = per_time[-1][1]
     return {
         "times": len(per_time),
@@ -186,7 +180,7 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
     summary["swimming_cost"] = _finite(result)
     summary["yplus"] = _finite(yplus_over_run(case))
     summary["yplus_gliding"] = _finite(yplus_over_run(glide))
-    _write_json(case / SUMMARY, summary)
+    write_json(case / SUMMARY, summary)
     from .render import plot_forces
 
     plot_forces(data, gd, period, ramp, case / "forces.png")

@@ -316,7 +316,7 @@ def test_static_smoke_run(tmp_path, smoke_mesh):
     assert summary["worst_cell_quality"]["min_cell_volume_m3"] > 0
     assert json.loads((case / C.SUMMARY).read_text()) == summary
     assert (case / "case.foam").exists()
-    written = [t for t, _ in C._time_dirs(case)]
+    written = [t for t, _ in C.time_dirs(case)]
     assert len(written) == 1 + record["parameters"]["n_steps"] // \
         record["parameters"]["steps_per_write"]
 

@@ -115,7 +115,7 @@ def test_coupled_smoke_run_and_restart(tmp_path, meshed, smoke, surface, ranks):
         assert summary["patch_points"] >= record["mesh"]["whale_points"]
     assert summary["max_mapping_distance_m"] < DEFAULT_TOLERANCE * smoke.geometry.length_m
 
-    times = C._time_dirs(case)
+    times = C.time_dirs(case)
     (t_last, last), (t_prev, _) = times[-1], times[-2]
     got = _whale_displacement(case, last)
     want = _expected(case, smoke, surface, t_last)
@@ -129,6 +129,6 @@ def test_coupled_smoke_run_and_restart(tmp_path, meshed, smoke, surface, ranks):
     shutil.copytree(case, again, ignore=shutil.ignore_patterns("processor*"))
     shutil.rmtree(again / last.name)
     C.run_case(again, ranks=ranks, progress=False)
-    assert C._time_dirs(again)[-1][0] == t_last
+    assert C.time_dirs(again)[-1][0] == t_last
     np.testing.assert_array_equal(_whale_displacement(again, again / last.name), got)
     assert t_prev < t_last

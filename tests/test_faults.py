@@ -653,7 +653,7 @@ def _whale_displacement(time_dir: Path) -> np.ndarray:
 def _written(case: Path) -> dict:
     """name -> {relative file: bytes} of every time folder but 0."""
     out = {}
-    for t, d in C._time_dirs(case):
+    for t, d in C.time_dirs(case):
         if t > 0:
             out[d.name] = {str(f.relative_to(d)): f.read_bytes() for f in d.rglob("*")
                            if f.is_file()}
@@ -678,7 +678,7 @@ def foam_case(tmp_path_factory, scene):
     ref = base / "reference"
     shutil.copytree(mesh, ref)
     C.run_case(ref, progress=False)
-    written = {d.name: _whale_displacement(d) for t, d in C._time_dirs(ref) if t > 0}
+    written = {d.name: _whale_displacement(d) for t, d in C.time_dirs(ref) if t > 0}
     assert len(written) == FAULT_STEPS // 4
     return mesh, dt, written
 
@@ -833,7 +833,7 @@ def foam_case_2ranks(tmp_path_factory, foam_case):
     ref = tmp_path_factory.mktemp("faults2") / "reference"
     shutil.copytree(mesh, ref)
     C.run_case(ref, ranks=2, progress=False)
-    written = {d.name: _whale_displacement(d) for t, d in C._time_dirs(ref) if t > 0}
+    written = {d.name: _whale_displacement(d) for t, d in C.time_dirs(ref) if t > 0}
     assert len(written) == FAULT_STEPS // 4
     return written
 
@@ -874,7 +874,7 @@ def test_parallel_run_killed_resumes_from_the_ranks(tmp_path, foam_case, foam_ca
     assert run.returncode == 2, (out, err)
     # run-case says OpenFOAM's own message, not only "see log.pimpleFoam"
     assert re.search(r"did the server stop\?|the server closed the connection", err), err
-    assert [t for t, _ in C._time_dirs(case)] == [0.0]          # nothing reconstructed yet
+    assert [t for t, _ in C.time_dirs(case)] == [0.0]          # nothing reconstructed yet
     latest = C._processor_latest(case)
     assert latest is not None and latest >= 8 * dt
     before = {p.name: _written(p) for p in C._processor_dirs(case)}
