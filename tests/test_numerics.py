@@ -77,6 +77,10 @@ def test_a_run_past_the_bound_stops_before_handing_on_nan(small, predicted):
 def test_the_chooser_meets_its_stated_tolerance(smoke_scene):
     from adapter import chooser
 
+    # the paper's stroke, for which the choice below was measured (the smooth stroke's
+    # tether makes the coarse whales differ more: it picks 2,400 nodes)
+    smoke_scene = smoke_scene.replace(stroke={"reversal": "negate", "fluke_table": "quadrature15",
+                                              "velocity_scale": 0.94462})
     tol = 0.2
     report = chooser.choose(smoke_scene, tol, max_dt=0.05, candidates=(600, 1200, 2400),
                             methods=("forward_euler", "symplectic_euler", "rk4"))
