@@ -6,7 +6,6 @@
 #include "whaleBlendedDisplacementMotionSolver.H"
 #include "pointKdTree.H"
 #include "addToRunTimeSelectionTable.H"
-#include "valuePointPatchField.H"
 #include "pointConstraints.H"
 #include "mapPolyMesh.H"
 #include "Pstream.H"
@@ -267,46 +266,6 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
         << " mesh points blended (K " << K << ", power " << power_
         << ", innerDistance " << innerDistance_ << ", outerDistance "
         << outerDistance_ << ", rotation " << rotation_ << ")" << endl;
-}
-
-
-Foam::tmp<Foam::vectorField>
-Foam::whaleBlendedDisplacementMotionSolver::mergedPatchDisplacement() const
-{
-    const pointPatchVectorField& ppf = pointDisplacement_.boundaryField()[patchi_];
-    if (!isA<valuePointPatchField<vector>>(ppf))
-    {
-        FatalErrorInFunction
-            << "pointDisplacement on patch " << ppf.patch().name()
-            << " is " << ppf.type() << ": whaleBlendedDisplacement needs a"
-            << " fixed-value kind of condition (e.g. stepServerDisplacement)"
-            << exit(FatalError);
-    }
-    const vectorField& mine = refCast<const valuePointPatchField<vector>>(ppf);
-
-    List<vectorField> allD(Pstream::nProcs());
-    allD[Pstream::myProcNo()] = mine;
-    Pstream::gatherList(allD);
-    Pstream::scatterList(allD);
-
-    tmp<vectorField> td(new vectorField(patchPoints0_.size(), Zero));
-    vectorField& d = td.ref();
-    forAll(allD, proci)
-    {
-        const labelList& slots = slots_[proci];
-        if (allD[proci].size() != slots.size())
-        {
-            FatalErrorInFunction
-                << "rank " << proci << " sent " << allD[proci].size()
-                << " patch displacements, expected " << slots.size()
-                << exit(FatalError);
-        }
-        forAll(slots, i)
-        {
-            d[slots[i]] = allD[proci][i];
-        }
-    }
-    return td;
 }
 
 

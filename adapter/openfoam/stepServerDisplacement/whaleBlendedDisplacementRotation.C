@@ -1,6 +1,7 @@
 /*---------------------------------------------------------------------------*\
-    whale-adapter: whaleBlendedDisplacement, the local rotation of every
-    patch point (option `rotation yes`).
+    whale-adapter: whaleBlendedDisplacement, the patch's displacement
+    gathered from all ranks, and the local rotation of every patch point
+    (option `rotation yes`).
 
     The rotation R_j of patch point j is the least-squares rotation taking
     the vectors to its K nearest patch points, a_k = x_k - x_j (undeformed),
@@ -11,6 +12,7 @@
 \*---------------------------------------------------------------------------*/
 
 #include "whaleBlendedDisplacementMotionSolver.H"
+#include "valuePointPatchField.H"
 #include <cmath>
 
 namespace
@@ -94,6 +96,46 @@ void largestEigenvector4(double a[4][4], double q[4])
 }
 
 } // End anonymous namespace
+
+
+Foam::tmp<Foam::vectorField>
+Foam::whaleBlendedDisplacementMotionSolver::mergedPatchDisplacement() const
+{
+    const pointPatchVectorField& ppf = pointDisplacement_.boundaryField()[patchi_];
+    if (!isA<valuePointPatchField<vector>>(ppf))
+    {
+        FatalErrorInFunction
+            << "pointDisplacement on patch " << ppf.patch().name()
+            << " is " << ppf.type() << ": whaleBlendedDisplacement needs a"
+            << " fixed-value kind of condition (e.g. stepServerDisplacement)"
+            << exit(FatalError);
+    }
+    const vectorField& mine = refCast<const valuePointPatchField<vector>>(ppf);
+
+    List<vectorField> allD(Pstream::nProcs());
+    allD[Pstream::myProcNo()] = mine;
+    Pstream::gatherList(allD);
+    Pstream::scatterList(allD);
+
+    tmp<vectorField> td(new vectorField(patchPoints0_.size(), Zero));
+    vectorField& d = td.ref();
+    forAll(allD, proci)
+    {
+        const labelList& slots = slots_[proci];
+        if (allD[proci].size() != slots.size())
+        {
+            FatalErrorInFunction
+                << "rank " << proci << " sent " << allD[proci].size()
+                << " patch displacements, expected " << slots.size()
+                << exit(FatalError);
+        }
+        forAll(slots, i)
+        {
+            d[slots[i]] = allD[proci][i];
+        }
+    }
+    return td;
+}
 
 
 Foam::tmp<Foam::tensorField>
