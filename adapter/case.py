@@ -89,6 +89,10 @@ class CaseParameters:
     k_inlet, omega_inlet : inflow turbulence (m2/s2, 1/s).
     ranks : MPI ranks (1 is serial).
     inflow_ramp_s : the inflow ramps from still water to the scene's speed over this (s).
+    motion_inner_m, motion_outer_m : whaleBlendedDisplacement's innerDistance and
+        outerDistance (m): ``case.motion_inner`` / ``motion_outer`` body lengths, the outer one
+        at most 0.8 of the gap between the body's bounding box and the nearest domain face
+        (the outer boundaries stay put), the inner one at most half the outer one.
     """
 
     domain_min: tuple
@@ -108,6 +112,8 @@ class CaseParameters:
     omega_inlet: float
     ranks: int
     inflow_ramp_s: float = 0.0
+    motion_inner_m: float = 0.5
+    motion_outer_m: float = 10.0
 
 
 def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
@@ -160,6 +166,9 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
     location = (float(lo[0] - 0.5 * c.upstream * length + 0.1234567 * size[0]),
                 float(centre[1] + 0.1234567 * size[1]), float(centre[2] + 0.1234567 * size[2]))
     grow = 0.1 * length
+    gap = float(min((lo - dmin).min(), (dmax - hi).min()))
+    outer = min(c.motion_outer * length, 0.8 * gap)
+    inner = min(c.motion_inner * length, 0.5 * outer)
     k = 1.5 * (TURBULENCE_INTENSITY * speed) ** 2
     omega = k / (EDDY_VISCOSITY_RATIO * scene.flow.nu_m2_s)
     return CaseParameters(
@@ -180,6 +189,8 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
         omega_inlet=omega,
         ranks=int(ranks if ranks is not None else c.ranks),
         inflow_ramp_s=c.inflow_ramp_cycles * scene.period_s,
+        motion_inner_m=float(inner),
+        motion_outer_m=float(outer),
     )
 
 
@@ -352,6 +363,19 @@ def _write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool
     d["timePrecision"] = p.time_precision
     d["writeInterval"] = p.steps_per_write
     d["functions"]["forces"]["rhoInf"] = scene.flow.rho_kg_m3
+    d.writeFile()
+
+    d = parsed_dict(case / "constant" / "dynamicMeshDict")
+    if c.mesh_motion == "blended" and (_plugin_lib().is_file() or not static_whale):
+        d["motionSolver"] = "whaleBlendedDisplacement"
+        d["motionSolverLibs"] = [lib]
+        coeffs = d["whaleBlendedDisplacementCoeffs"]
+        coeffs["innerDistance"] = p.motion_inner_m
+        coeffs["outerDistance"] = p.motion_outer_m
+    else:
+        # the Laplacian (also for a flow-only case without the plugin library)
+        d["motionSolver"] = "displacementLaplacian"
+        d["motionSolverLibs"] = ['"libfvMotionSolvers.so"']
     d.writeFile()
 
     d = parsed_dict(case / "system" / "decomposeParDict")

@@ -191,6 +191,13 @@ class Case:
     layers: int = field(default=3, metadata={"check": lambda v: 0 <= v <= 20})
     first_layer_m: float = field(default=0.008, metadata={"check": _positive})
     layer_expansion: float = field(default=1.5, metadata={"check": lambda v: 1.0 <= v <= 3.0})
+    #: how the mesh follows the whale: "blended" (whaleBlendedDisplacement: every point's
+    #: displacement a fixed weighted sum of its nearest whale points', faded out between
+    #: motion_inner and motion_outer body lengths from the whale; a function of the whale's
+    #: displacement alone) or "laplacian" (displacementLaplacian, quadratic inverseDistance)
+    mesh_motion: str = field(default="blended", metadata={"choices": ("blended", "laplacian")})
+    motion_inner: float = field(default=1.0 / 30.0, metadata={"check": _non_negative})
+    motion_outer: float = field(default=2.0 / 3.0, metadata={"check": _positive})
 
 
 @dataclass(frozen=True)

@@ -93,6 +93,14 @@ def test_parameters_explicit_step_end_time_and_ranks():
     assert p.ranks == 3
 
 
+def test_prepare_case_mesh_motion_laplacian(tmp_path, smoke, smoke_surface):
+    scene = smoke.replace(case={"mesh_motion": "laplacian"})
+    C.prepare_case(scene, tmp_path / "c", surface=smoke_surface)
+    dyn = _read(tmp_path / "c" / "constant" / "dynamicMeshDict")
+    assert dyn["motionSolver"] == "displacementLaplacian"
+    assert "libfvMotionSolvers.so" in str(dyn["motionSolverLibs"])
+
+
 def test_smoke_preset_is_small(smoke, smoke_surface):
     pts = smoke_surface.points
     p = C.case_parameters(smoke, pts.min(0), pts.max(0))
@@ -137,7 +145,17 @@ def test_prepare_case_writes_readable_dictionaries(tmp_path, smoke, smoke_surfac
     assert float(_read(case / "constant" / "transportProperties")["nu"]) == smoke.flow.nu_m2_s
     assert _read(case / "constant" / "turbulenceProperties")["simulationType"] == "laminar"
     dyn = _read(case / "constant" / "dynamicMeshDict")
-    assert dyn["motionSolver"] == "displacementLaplacian"
+    assert dyn["motionSolver"] == "whaleBlendedDisplacement"
+    assert str(C.PLUGIN_LIB) in str(dyn["motionSolverLibs"])
+    coeffs = dyn["whaleBlendedDisplacementCoeffs"]
+    assert float(coeffs["innerDistance"]) == pytest.approx(p.motion_inner_m)
+    assert float(coeffs["outerDistance"]) == pytest.approx(p.motion_outer_m)
+    # the outer boundaries stay put: the blending ends inside the domain (the near box is the
+    # body's bounding box grown on every side)
+    gap = min(min(np.subtract(p.near_box_min, p.domain_min)),
+              min(np.subtract(p.domain_max, p.near_box_max)))
+    assert 0 < p.motion_inner_m < p.motion_outer_m
+    assert p.motion_outer_m < gap + 0.5 * (np.subtract(p.near_box_max, p.near_box_min)).min()
 
     u = _read(case / "0.orig" / "U")
     assert [float(v) for v in u["Uinlet"]] == [smoke.flow.speed_m_s, 0.0, 0.0]

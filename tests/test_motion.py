@@ -1,0 +1,313 @@
+"""The whaleBlendedDisplacement motion solver, in real pimpleFoam runs, against truths from outside.
+
+A 2D channel (blockMesh, 888 cells) with a 0.5 m square hole whose four sides are ONE patch
+``whale``; the cells next to the hole are thin (graded blocks: about 0.01 m normal to the wall
+against 0.0625 m along it, like prism layers). The whale's ``pointDisplacement`` is one of
+OpenFOAM's own rigid motions (no step-server needed): ``oscillatingDisplacement`` (a translation
+``A sin(w t)``) or ``angularOscillatingDisplacement`` (a rotation by ``a sin(w t)`` about z through
+the square's centre); the rest of the mesh is moved by ``whaleBlendedDisplacement`` from the
+plugin library. Checked:
+
+- a rigidly translated wall moves every point within ``innerDistance`` of it by exactly the
+  translation (so the layer cells keep their shape and volume), points beyond
+  ``outerDistance`` not at all, and the points between by ``phi(r) A sin(w t)``, ``phi`` the
+  quintic smoothstep of the distance to the nearest wall point (computed here from the points);
+- a rigidly rotated wall (``rotation yes``) moves every point within ``innerDistance`` by
+  exactly that rotation, and the layer cells keep their volume; without ``rotation`` they do not
+  (the cells shear);
+- a restart from an odd written step (``startFrom latestTime``) reproduces the points and U of
+  an uninterrupted run to 1e-9, serially and on two MPI ranks; the two ranks' mesh equals the
+  serial one (the motion does not depend on the decomposition).
+
+Skipped without pimpleFoam or without the built library (scripts/build_plugin.sh).
+"""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+
+from adapter import case as C
+from adapter.yplus import read_boundary, read_faces, read_points
+
+pytestmark = [
+    pytest.mark.openfoam,
+    pytest.mark.slow,
+    pytest.mark.skipif(shutil.which("pimpleFoam") is None or shutil.which("blockMesh") is None,
+                       reason="OpenFOAM (pimpleFoam, blockMesh) is not on PATH"),
+    pytest.mark.skipif(not C.PLUGIN_LIB.is_file(),
+                       reason=f"the library {C.PLUGIN_LIB} is not built (scripts/build_plugin.sh)"),
+]
+
+DT = 1 / 64                  # a binary fraction: restart times are exact
+N_STEPS = 7
+RESTART_STEP = 3             # odd
+AMPLITUDE = (0.12, 0.07, 0.0)        # m, oscillatingDisplacement
+ANGLE = 0.4                          # rad, angularOscillatingDisplacement amplitude
+OMEGA = 12.0                         # rad/s, both
+INNER, OUTER, ROT = 0.06, 1.0, 0.4   # innerDistance, outerDistance, rotationDistance (m)
+
+_HEADER = "FoamFile {{ version 2.0; format ascii; class {cls}; object {obj}; }}\n"
+_XS, _NX, _GX = (-1.5, -0.25, 0.25, 3.0), (10, 8, 16), (0.03, 1, 30)
+_YS, _NY, _GY = (-1.5, -0.25, 0.25, 1.5), (10, 8, 10), (0.03, 1, 30)
+
+
+def _v(i: int, j: int, k: int) -> int:
+    return k * 16 + j * 4 + i
+
+
+def _quad(a: tuple, b: tuple) -> str:
+    return f"({_v(*a, 0)} {_v(*b, 0)} {_v(*b, 1)} {_v(*a, 1)})"
+
+
+def _block_mesh_dict() -> str:
+    verts = " ".join(f"({x} {y} {z})" for z in (0, 0.1) for y in _YS for x in _XS)
+    blocks, planes = [], []
+    for j in range(3):
+        for i in range(3):
+            if (i, j) == (1, 1):
+                continue
+            c = [_v(i, j, 0), _v(i + 1, j, 0), _v(i + 1, j + 1, 0), _v(i, j + 1, 0)]
+            blocks.append(f"hex ({' '.join(map(str, c + [n + 16 for n in c]))}) "
+                          f"({_NX[i]} {_NY[j]} 1) simpleGrading ({_GX[i]} {_GY[j]} 1)")
+            planes += [f"({' '.join(map(str, c[::-1]))})", f"({' '.join(str(n + 16) for n in c)})"]
+    side = {
+        "inlet": ("patch", [_quad((0, j), (0, j + 1)) for j in range(3)]),
+        "outlet": ("patch", [_quad((3, j), (3, j + 1)) for j in range(3)]),
+        "walls": ("patch", [_quad((i, 0), (i + 1, 0)) for i in range(3)]
+                  + [_quad((i, 3), (i + 1, 3)) for i in range(3)]),
+        "whale": ("wall", [_quad((1, 1), (1, 2)), _quad((2, 1), (2, 2)),
+                           _quad((1, 1), (2, 1)), _quad((1, 2), (2, 2))]),
+        "frontAndBack": ("empty", planes),
+    }
+    boundary = "\n".join(f"{name} {{ type {kind}; faces ({' '.join(faces)}); }}"
+                         for name, (kind, faces) in side.items())
+    return (_HEADER.format(cls="dictionary", obj="blockMeshDict")
+            + f"convertToMeters 1;\nvertices ({verts});\nblocks ({' '.join(blocks)});\n"
+            + f"edges ();\nboundary (\n{boundary}\n);\nmergePatchPairs ();\n")
+
+
+def _whale_bc(motion: str) -> str:
+    if motion == "translate":
+        return ("type oscillatingDisplacement; amplitude ({} {} {}); omega {};"
+                " value uniform (0 0 0);".format(*AMPLITUDE, OMEGA))
+    return (f"type angularOscillatingDisplacement; axis (0 0 1); origin (0 0 0); angle0 0;"
+            f" amplitude {ANGLE}; omega {OMEGA}; value uniform (0 0 0);")
+
+
+def _files(motion: str, rotation: bool, lib) -> dict:
+    return {
+        "system/controlDict": ("dictionary", f"""
+libs ("{lib}" "libfvMotionSolvers.so");
+application pimpleFoam; startFrom latestTime; startTime 0; stopAt endTime;
+endTime {N_STEPS * DT}; deltaT {DT}; writeControl timeStep; writeInterval 1;
+writeFormat ascii; writePrecision 17; timeFormat general; timePrecision 12;
+runTimeModifiable false;
+"""),
+        "system/fvSchemes": ("dictionary", """
+ddtSchemes { default Euler; } gradSchemes { default Gauss linear; }
+divSchemes { default none; div(phi,U) Gauss linearUpwind grad(U);
+             div((nuEff*dev2(T(grad(U))))) Gauss linear; }
+laplacianSchemes { default Gauss linear corrected; } interpolationSchemes { default linear; }
+snGradSchemes { default corrected; }
+"""),
+        "system/fvSolution": ("dictionary", """
+solvers
+{
+    "(p|pcorr)" { solver PCG; preconditioner DIC; tolerance 1e-10; relTol 0; }
+    "(p|pcorr)Final" { $p; }
+    "(U|UFinal)" { solver smoothSolver; smoother symGaussSeidel; tolerance 1e-10; relTol 0; }
+}
+PIMPLE { correctPhi yes; nOuterCorrectors 1; nCorrectors 2; nNonOrthogonalCorrectors 0; }
+"""),
+        "system/decomposeParDict": ("dictionary",
+                                    "numberOfSubdomains 2; method hierarchical;"
+                                    " coeffs { n (1 2 1); }   // the square split\n"),
+        "constant/transportProperties": ("dictionary", "transportModel Newtonian; nu 0.01;\n"),
+        "constant/turbulenceProperties": ("dictionary", "simulationType laminar;\n"),
+        "constant/dynamicMeshDict": ("dictionary", f"""
+dynamicFvMesh dynamicMotionSolverFvMesh;
+motionSolverLibs ("{lib}");
+motionSolver whaleBlendedDisplacement;
+whaleBlendedDisplacementCoeffs
+{{
+    patch whale; nNeighbours 8; power 3;
+    innerDistance {INNER}; outerDistance {OUTER};
+    rotation {'yes' if rotation else 'no'}; rotationDistance {ROT};
+}}
+"""),
+        "0/U": ("volVectorField", """
+dimensions [0 1 -1 0 0 0 0]; internalField uniform (1 0 0);
+boundaryField
+{
+    inlet { type fixedValue; value uniform (1 0 0); }
+    outlet { type inletOutlet; inletValue uniform (0 0 0); value uniform (1 0 0); }
+    walls { type slip; }
+    whale { type movingWallVelocity; value uniform (0 0 0); }
+    frontAndBack { type empty; }
+}
+"""),
+        "0/p": ("volScalarField", """
+dimensions [0 2 -2 0 0 0 0]; internalField uniform 0;
+boundaryField
+{
+    inlet { type zeroGradient; } outlet { type fixedValue; value uniform 0; }
+    walls { type zeroGradient; } whale { type zeroGradient; } frontAndBack { type empty; }
+}
+"""),
+        "0/pointDisplacement": ("pointVectorField", f"""
+dimensions [0 1 0 0 0 0 0]; internalField uniform (0 0 0);
+boundaryField
+{{
+    inlet {{ type fixedValue; value uniform (0 0 0); }}
+    outlet {{ type fixedValue; value uniform (0 0 0); }}
+    walls {{ type slip; }}
+    whale {{ {_whale_bc(motion)} }}
+    frontAndBack {{ type empty; }}
+}}
+"""),
+    }
+
+
+def make_case(case, motion: str, rotation: bool, lib=C.PLUGIN_LIB) -> None:
+    for rel, (cls, body) in _files(motion, rotation, lib).items():
+        path = case / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(_HEADER.format(cls=cls, obj=path.name) + body)
+    (case / "system" / "blockMeshDict").write_text(_block_mesh_dict())
+
+
+def _set_end(case, steps: int) -> None:
+    cd = case / "system" / "controlDict"
+    text = cd.read_text().replace(f"endTime {N_STEPS * DT};", f"endTime {steps * DT};")
+    cd.write_text(text)
+
+
+def _pimple(case, ranks: int, log: str) -> None:
+    if ranks == 1:
+        C.run_utility(case, ["pimpleFoam"], log_name=log)
+    else:
+        C.run_utility(case, ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", "2",
+                             "pimpleFoam", "-parallel"], log_name=log)
+
+
+def run(tmp_path_factory, motion: str, rotation: bool, ranks: int = 1, restart: bool = False):
+    """Make and run a case (with ``restart``: stop at RESTART_STEP, then continue); its folder."""
+    case = tmp_path_factory.mktemp(f"motion-{motion}-{int(rotation)}-{ranks}-{int(restart)}")
+    make_case(case, motion, rotation)
+    C.run_utility(case, ["blockMesh"])
+    if ranks > 1:
+        C.run_utility(case, ["decomposePar"])
+    if restart:
+        _set_end(case, RESTART_STEP)
+        _pimple(case, ranks, "pimpleFoam-first")
+        cd = case / "system" / "controlDict"
+        cd.write_text(cd.read_text().replace(f"endTime {RESTART_STEP * DT};",
+                                             f"endTime {N_STEPS * DT};"))
+        for proc in [case] if ranks == 1 else sorted(case.glob("processor*")):
+            assert (proc / _tname(RESTART_STEP)).is_dir()
+            assert not (proc / _tname(RESTART_STEP + 1)).exists()
+    _pimple(case, ranks, "pimpleFoam")
+    return case
+
+
+def read_vector_field(path) -> np.ndarray:
+    """(N, 3) internalField of a volVectorField file (nonuniform)."""
+    text = path.read_text()
+    i = text.index("internalField")
+    head, _, rest = text[i:].partition("(")
+    n = int(head.split()[-1])
+    body = rest[:rest.index("\n)")]
+    v = np.array(body.replace("(", " ").replace(")", " ").split(), dtype=float)
+    assert v.size == 3 * n, path
+    return v.reshape(n, 3)
+
+
+def _tname(step: int) -> str:
+    return f"{step * DT:.12g}"
+
+
+def points0_and_wall(case):
+    """Undeformed points and the whale's point labels (from the blockMesh faces)."""
+    mesh = case / "constant" / "polyMesh"
+    p0 = read_points(mesh / "points")
+    faces = read_faces(mesh / "faces")
+    b = read_boundary(mesh / "boundary")["whale"]
+    wall = np.unique(np.concatenate(faces[b["startFace"]:b["startFace"] + b["nFaces"]]))
+    return p0, wall
+
+
+def _phi(r):
+    s = np.clip((OUTER - r) / (OUTER - INNER), 0.0, 1.0)
+    return s**3 * (10 - 15 * s + 6 * s * s)
+
+
+@pytest.mark.parametrize("rotation", [False, True])
+def test_translated_wall_moves_the_layer_rigidly(tmp_path_factory, rotation):
+    case = run(tmp_path_factory, "translate", rotation)
+    p0, wall = points0_and_wall(case)
+    r = np.min(np.linalg.norm(p0[:, None, :] - p0[wall][None, :, :], axis=2), axis=1)
+    for step in range(1, N_STEPS + 1):
+        t = step * DT
+        shift = np.array(AMPLITUDE) * np.sin(OMEGA * t)
+        d = read_points(case / _tname(step) / "polyMesh" / "points") - p0
+        near = r < INNER
+        assert near.sum() > 2 * len(wall)          # the wall and the layer above it
+        np.testing.assert_allclose(d[near], np.broadcast_to(shift, d[near].shape),
+                                   rtol=0, atol=1e-12)
+        # (2D: twoDPointCorrector re-snaps the points to the planes, round-off only)
+        np.testing.assert_allclose(d[r >= OUTER], 0.0, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(d, _phi(r)[:, None] * shift, rtol=0, atol=1e-12)
+
+
+def _rotated(p0, angle):
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * p0[:, 0] - s * p0[:, 1], s * p0[:, 0] + c * p0[:, 1], p0[:, 2]], axis=1)
+
+
+@pytest.mark.parametrize("rotation", [True, False])
+def test_rotated_wall_turns_the_layer_with_it(tmp_path_factory, rotation):
+    case = run(tmp_path_factory, "rotate", rotation)
+    p0, wall = points0_and_wall(case)
+    r = np.min(np.linalg.norm(p0[:, None, :] - p0[wall][None, :, :], axis=2), axis=1)
+    near = r < INNER
+    worst = 0.0
+    for step in range(1, N_STEPS + 1):
+        angle = ANGLE * np.sin(OMEGA * step * DT)
+        pts = read_points(case / _tname(step) / "polyMesh" / "points")
+        np.testing.assert_allclose(pts[wall], _rotated(p0[wall], angle), rtol=0, atol=1e-12)
+        worst = max(worst, np.abs(pts[near] - _rotated(p0[near], angle)).max())
+        np.testing.assert_allclose(pts[r >= OUTER], p0[r >= OUTER], rtol=0, atol=1e-12)
+    if rotation:
+        assert worst < 1e-9
+    else:
+        # displacement blending translates the layer's outer points with their wall point:
+        # the layer shears by the angle (here up to 0.4 rad * 0.06 m ~ 1 cm off)
+        assert worst > 1e-3
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_restart_from_an_odd_step_reproduces_the_mesh_and_flow(tmp_path_factory, ranks):
+    if ranks > 1 and shutil.which("mpirun") is None:
+        pytest.skip("mpirun is not on PATH")
+    straight = run(tmp_path_factory, "rotate", True, ranks)
+    resumed = run(tmp_path_factory, "rotate", True, ranks, restart=True)
+    procs = [""] if ranks == 1 else ["processor0", "processor1"]
+    for proc in procs:
+        for step in range(RESTART_STEP + 1, N_STEPS + 1):
+            t = _tname(step)
+            a, b = straight / proc / t, resumed / proc / t
+            np.testing.assert_allclose(read_points(b / "polyMesh" / "points"),
+                                       read_points(a / "polyMesh" / "points"), rtol=0, atol=1e-9)
+            np.testing.assert_allclose(read_vector_field(b / "U"), read_vector_field(a / "U"),
+                                       rtol=0, atol=1e-9)
+    if ranks > 1:
+        # the two ranks' mesh is the serial one
+        serial = run(tmp_path_factory, "rotate", True, 1)
+        C.run_utility(straight, ["reconstructPar", "-latestTime"])
+        t = _tname(N_STEPS)
+        np.testing.assert_allclose(read_points(straight / t / "polyMesh" / "points"),
+                                   read_points(serial / t / "polyMesh" / "points"),
+                                   rtol=0, atol=1e-12)
