@@ -75,6 +75,7 @@ def plot_forces(swim: dict, glide: dict, period: float, start_up: float, path: P
     import matplotlib.pyplot as plt
 
     t = swim["Time"]
+    measured = t > start_up
     fig, axes = plt.subplots(3, 1, figsize=(9, 7.5), dpi=110, sharex=True)
     rows = (("total:Fx", "Fx (N)"), ("total:Fz", "Fz (N)"), ("total:P", "power into water (W)"))
     for ax, (key, label) in zip(axes, rows, strict=True):
@@ -86,8 +87,16 @@ def plot_forces(swim: dict, glide: dict, period: float, start_up: float, path: P
             ax.axvline(c, color="0.6", lw=0.8, zorder=0)
         ax.axhline(0, color="0.7", lw=0.6)
         ax.set_ylabel(label)
+        if measured.any():
+            # scaled to the measured cycles: the start-up (the inflow's ramp) may run off it
+            lo, hi = float(swim[key][measured].min()), float(swim[key][measured].max())
+            if glide and key != "total:P":
+                lo, hi = min(lo, float(glide[key][-1])), max(hi, float(glide[key][-1]))
+            pad = 0.15 * max(hi - lo, 1e-9)
+            ax.set_ylim(min(lo - pad, 0.0) if key == "total:P" else lo - pad, hi + pad)
     axes[0].legend(loc="upper right", fontsize=8)
-    axes[0].set_title("Loads on the whale (grey: start-up, discarded; lines: stroke cycles)")
+    axes[0].set_title("Loads on the whale (grey: start-up, discarded and off scale; lines: "
+                      "stroke cycles)", fontsize=10)
     axes[-1].set_xlabel("time (s)")
     fig.tight_layout()
     fig.savefig(path)
