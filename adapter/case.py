@@ -35,6 +35,7 @@ import numpy as np
 
 from . import resources
 from .errors import AdapterError, SolverRunError
+from .yplus import time_dirs
 
 _REPO = Path(__file__).resolve().parent.parent
 #: the template case (foam_case/ of the repository, adapter/_foam_case in a wheel)
@@ -709,18 +710,6 @@ class _Progress:
 
 # --------------------------------------------------------------------------------------------
 # running the case
-
-
-def time_dirs(case: Path) -> list:
-    """``[(time, folder), ...]`` of a case's time folders, earliest first."""
-    out = []
-    for p in case.iterdir():
-        if p.is_dir():
-            try:
-                out.append((float(p.name), p))
-            except ValueError:
-                pass
-    return sorted(out)
 
 
 def _processor_dirs(case: Path) -> list:

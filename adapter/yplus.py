@@ -175,7 +175,8 @@ def _matching_brace(text: str, open_pos: int) -> int:
 # the mesh of a time
 
 
-def _time_name_dirs(case: Path) -> list:
+def time_dirs(case: Path) -> list:
+    """``[(time, folder), ...]`` of a case's time folders, earliest first."""
     out = []
     for p in case.iterdir():
         if p.is_dir():
@@ -192,7 +193,7 @@ def mesh_file(case, time: str | None, name: str) -> Path:
     case = Path(case)
     if time is not None:
         t = float(time)
-        for value, d in reversed(_time_name_dirs(case)):
+        for value, d in reversed(time_dirs(case)):
             if value <= t * (1 + 1e-12) + 1e-300:
                 f = d / "polyMesh" / name
                 if f.is_file() or f.with_name(name + ".gz").is_file():
@@ -269,7 +270,7 @@ def area_stats(values, areas) -> dict:
 
 def latest_time(case, field: str = "yPlus") -> str:
     """Name of the newest time folder holding ``field``."""
-    for _, d in reversed(_time_name_dirs(Path(case))):
+    for _, d in reversed(time_dirs(Path(case))):
         if (d / field).is_file() or (d / f"{field}.gz").is_file():
             return d.name
     raise AdapterError(f"{case}: no time folder holds {field} (add the yPlus function object "
@@ -310,7 +311,7 @@ def _time_dir(case: Path, time: str) -> Path:
     d = case / str(time)
     if d.is_dir():
         return d
-    for value, p in _time_name_dirs(case):
+    for value, p in time_dirs(case):
         if abs(value - float(time)) <= 1e-9 * max(1.0, abs(value)):
             return p
     raise AdapterError(f"{case}: no time folder {time}")
@@ -357,7 +358,7 @@ def layer_coverage(case, patch: str = "whale") -> dict:
     is at least 0.99 when that field is there)."""
     case = Path(case)
     src = None
-    for _, d in reversed(_time_name_dirs(case)):
+    for _, d in reversed(time_dirs(case)):
         if (d / "nSurfaceLayers").is_file() or (d / "nSurfaceLayers.gz").is_file():
             src = d
             break

@@ -32,13 +32,10 @@ import pytest
 from adapter import case as C
 from adapter.yplus import read_boundary, read_faces, read_points
 
+from .conftest import NEEDS_FOAM_AND_PLUGIN
+
 pytestmark = [
-    pytest.mark.openfoam,
-    pytest.mark.slow,
-    pytest.mark.skipif(shutil.which("pimpleFoam") is None or shutil.which("blockMesh") is None,
-                       reason="OpenFOAM (pimpleFoam, blockMesh) is not on PATH"),
-    pytest.mark.skipif(not C.PLUGIN_LIB.is_file(),
-                       reason=f"the library {C.PLUGIN_LIB} is not built (scripts/build_plugin.sh)"),
+    *NEEDS_FOAM_AND_PLUGIN,
 ]
 
 DT = 1 / 64                  # a binary fraction: restart times are exact
