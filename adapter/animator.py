@@ -21,6 +21,7 @@ from .gait import (
     SmoothStroke,
     load_fluke_table,
     place_gate,
+    push_and_tether,
     ramp,
     smootherstep,
     velocity_profile,
@@ -170,18 +171,11 @@ class Animator:
         if self.smooth:
             if n > 0:
                 law, t1, t0 = self._stroke, n * self.dt, (n - 1) * self.dt
-                dG = law.velocity(t1) - law.velocity(t0)
-                dD = law.displacement(t1) - law.displacement(t0)
-                V, m = self.V, self._moving
-                V[m, 2] += dG * self._moving_profile - dD * self._moving_damping
-                # the tether: a critically damped pull toward the target, so that the springs'
-                # departures from it stay bounded (see docs/stroke.md)
                 G1, D1 = law.velocity(t1), law.displacement(t1)
-                dev_x = self.X[m] - self.rest[m]
-                dev_x[:, 2] -= D1 * self._moving_profile
-                dev_v = V[m].copy()
-                dev_v[:, 2] -= G1 * self._moving_profile
-                V[m] -= self.dt * (self._tether_k * dev_x + self._tether_c * dev_v)
+                push_and_tether(self.X, self.V, self.rest, self._moving, self._moving_profile,
+                                self._moving_damping, G1 - law.velocity(t0),
+                                D1 - law.displacement(t0), G1, D1, self._tether_k,
+                                self._tether_c, self.dt)
             return
         if n % self.steps_per_quarter:
             return

@@ -218,6 +218,24 @@ def rotation_y(theta: float) -> np.ndarray:
 
 
 @numba.njit(cache=True, error_model="numpy")
+def push_and_tether(X, V, rest, moving, profile, damping, dG, dD, G1, D1, k, c, dt):
+    """The smooth stroke's velocity change over one internal step, in place on V.
+
+    For every moving node a (index ``moving[a]``): the push ``profile dG - damping dD`` on
+    its vertical velocity (the target's acceleration less the network's velocity force on the
+    target, integrated over the step), then the tether ``-dt (k (x - x_target) + c (v -
+    v_target))`` with ``x_target = rest + profile D1 e_z`` and ``v_target = profile G1 e_z``
+    (see :class:`SmoothStroke`)."""
+    for a in range(moving.shape[0]):
+        i = moving[a]
+        V[i, 2] += dG * profile[a] - dD * damping[a]
+        V[i, 0] -= dt * (k * (X[i, 0] - rest[i, 0]) + c * V[i, 0])
+        V[i, 1] -= dt * (k * (X[i, 1] - rest[i, 1]) + c * V[i, 1])
+        V[i, 2] -= dt * (k * (X[i, 2] - rest[i, 2] - D1 * profile[a])
+                         + c * (V[i, 2] - G1 * profile[a]))
+
+
+@numba.njit(cache=True, error_model="numpy")
 def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_dot):
     """Shift the fluke nodes with the hinge and rotate them by ``theta`` (in place).
 
