@@ -112,3 +112,63 @@ def test_bad_payloads():
         wire.unpack_request(b"\0" * 55)
     with pytest.raises(WireError, match="DISPLACEMENT"):
         wire.unpack_displacement(wire.pack_displacement(0.0, np.zeros((2, 3)))[:-1])
+
+
+# --- hand-built frames: the bytes of docs/protocol.md, packed here, not by the module ----------
+
+def _frame(version, msg_type, payload=b"", seq=1):
+    # offset 0 magic "WHAL", 4 u16 version, 6 u16 type, 8 u32 length, 12 u32 sequence number
+    return struct.pack("<4sHHII", b"WHAL", version, msg_type, len(payload), seq) + payload
+
+
+def _hello(rank, n_ranks, points, token=b""):
+    # u32 rank, u32 nRanks, u32 nPoints, u32 tokenLength, token, nPoints x 3 f64
+    pts = [float(c) for p in points for c in p]
+    return (struct.pack("<IIII", rank, n_ranks, len(points), len(token)) + token
+            + struct.pack(f"<{len(pts)}d", *pts))
+
+
+@pytest.mark.parametrize("version", [0, 2, 3, 0xFFFF])
+@pytest.mark.parametrize("msg_type", [1, 3, 7])
+def test_a_hand_built_frame_of_another_version_is_refused(version, msg_type):
+    payload = _hello(0, 1, [(1.0, 2.0, 3.0)]) if msg_type == 1 else b""
+    data = _frame(version, msg_type, payload)
+    for decode in (wire.decode_frame, lambda d: wire.decode_header(d[:16])):
+        with pytest.raises(WireError) as info:
+            decode(data)
+        assert info.value.code == ErrorCode.VERSION_MISMATCH == 2
+        assert f"version {version}" in str(info.value) and "version 1" in str(info.value)
+    # and over a socket, before the payload is read
+    a, b = _pair()
+    a.sendall(data)
+    with pytest.raises(WireError) as info:
+        wire.read_frame(b, 5)
+    assert info.value.code == ErrorCode.VERSION_MISMATCH
+    a.close()
+    b.close()
+
+
+def test_a_hand_built_version_1_frame_is_accepted():
+    payload = _hello(1, 2, [(1.0, 2.0, 3.0), (-4.0, 0.5, 6.25)], token=b"ab")
+    frame = wire.decode_frame(_frame(1, 1, payload, seq=9))
+    assert (frame.type, frame.seq, frame.payload) == (MessageType.HELLO, 9, payload)
+    hello = wire.unpack_hello(frame.payload)
+    assert (hello.rank, hello.n_ranks, hello.token) == (1, 2, "ab")
+    assert hello.points.tolist() == [[1.0, 2.0, 3.0], [-4.0, 0.5, 6.25]]
+
+
+@pytest.mark.parametrize("token", [b"", b"ab"])
+@pytest.mark.parametrize("extra", [b"\0", b"\0" * 7, b"\0" * 24])
+def test_a_hand_built_hello_with_trailing_bytes_is_refused(token, extra):
+    payload = _hello(0, 1, [(1.0, 2.0, 3.0), (4.0, 5.0, 6.0)], token) + extra
+    with pytest.raises(WireError) as info:
+        wire.unpack_hello(payload)
+    assert info.value.code == ErrorCode.BAD_HELLO == 3
+    assert f"got {len(payload)}" in str(info.value)
+
+
+def test_a_hand_built_hello_one_byte_short_is_refused():
+    payload = _hello(0, 1, [(1.0, 2.0, 3.0)])[:-1]
+    with pytest.raises(WireError) as info:
+        wire.unpack_hello(payload)
+    assert info.value.code == ErrorCode.BAD_HELLO
