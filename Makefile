@@ -27,7 +27,7 @@ scene_args = $(if $(filter %.toml,$(SCENE)),--scene $(SCENE),--preset $(SCENE))
         chart paraview paraview-deps mutation clean
 
 help:
-	@sed -n '1,10p' Makefile
+	@sed -n '1,7p' Makefile
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
