@@ -87,7 +87,12 @@ def run_module(module: str, tests: list[str], base: dict, jobs: int) -> dict:
             "survivors": survivors}
 
 
-def write_report(results: list[dict]) -> Path:
+def write_report(new: list[dict]) -> Path:
+    """The report of every module run so far: earlier runs' results are kept unless rerun."""
+    summary = OUT / "summary.json"
+    old = json.loads(summary.read_text()) if summary.exists() else []
+    rerun = {r["module"] for r in new}
+    results = [r for r in old if r["module"] not in rerun] + new
     lines = ["# Mutation report (mutmut)", ""]
     lines.append("| module | tests | mutants | killed | timeout | survived | no tests | "
                  "score | wall time |")
@@ -107,7 +112,7 @@ def write_report(results: list[dict]) -> Path:
                           m["diff"].strip(), "```", ""]
     path = OUT / "report.md"
     path.write_text("\n".join(lines) + "\n")
-    (OUT / "summary.json").write_text(json.dumps(results, indent=2))
+    summary.write_text(json.dumps(results, indent=2))
     return path
 
 
