@@ -272,3 +272,28 @@ def test_send_frame_writes_the_spec_bytes():
     assert got == want
     a.close()
     b.close()
+
+
+class _OneByteAtATime:
+    """A socket stand-in whose every read returns a single byte (a worst-case kernel)."""
+
+    def __init__(self, data):
+        self.data, self.timeout = bytearray(data), None
+
+    def recv_into(self, view, n):
+        if not self.data:
+            return 0
+        view[0] = self.data.pop(0)
+        return 1
+
+    def gettimeout(self):
+        return self.timeout
+
+    def settimeout(self, t):
+        self.timeout = t
+
+
+def test_read_frame_assembles_a_frame_read_one_byte_at_a_time():
+    payload = struct.pack("<d", 1.5)
+    frame = wire.read_frame(_OneByteAtATime(_frame(1, 5, payload, seq=3)), 5)
+    assert (frame.type, frame.seq, frame.payload) == (MessageType.WRITE, 3, payload)
