@@ -4,6 +4,7 @@
 #   make test       lint + the whole test suite, OpenFOAM and ParaView included
 #   make dry-run    animate without fluid (SCENE, OUT, CYCLES)
 #   make bench      performance figures; make chart: the numerics study; make paraview: pictures
+#   make mutation   mutation testing of the core modules (MODULES, JOBS; docs/mutation.md)
 
 SHELL := /bin/bash
 PYTHON ?= python3
@@ -16,14 +17,17 @@ CYCLES ?=
 NP ?=
 CASE ?= runs/$(basename $(notdir $(SCENE)))
 PYTEST_ARGS ?=
+# make mutation: the modules to mutate (default: all of pyproject's [tool.whale-adapter.mutation])
+MODULES ?=
+JOBS ?= 2
 
 scene_args = $(if $(filter %.toml,$(SCENE)),--scene $(SCENE),--preset $(SCENE))
 
 .PHONY: help setup venv system openfoam plugin test lint dry-run calibrate run-case bench \
-        chart paraview paraview-deps clean
+        chart paraview paraview-deps mutation clean
 
 help:
-	@sed -n '1,9p' Makefile
+	@sed -n '1,7p' Makefile
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -71,6 +75,9 @@ chart: venv
 
 paraview: venv paraview-deps
 	$(BIN)/whale-adapter paraview $(if $(filter file,$(origin CASE)),$(OUT),$(CASE))
+
+mutation: venv
+	$(BIN)/python scripts/mutation.py --jobs $(JOBS) $(MODULES)
 
 clean:
 	rm -rf out build/lib .pytest_cache

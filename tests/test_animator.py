@@ -105,3 +105,30 @@ def test_bad_table_is_named(tmp_path):
     f.write_text("phase,angle_deg\n0.5,1\n0.2,2\n")
     with pytest.raises(SceneError, match="rise strictly"):
         load_fluke_table(str(f))
+
+
+def test_every_quarter_event_and_the_wrap_into_the_next_cycle(paper_animator):
+    """The paper's cycle (docs/stroke.md): at the start of quarter 0 the upward profile, at
+    1 every velocity negated, at 2 the downward profile, at 3 negated again, then quarter 0
+    of the next cycle. Checked at each of the six event steps of 1.5 cycles, against one
+    forward Euler step written out here: positions where the step puts them (an event does
+    not move the whale), velocities as the event leaves them, and the next step's positions
+    moved by those velocities."""
+    a = paper_animator
+    assert a.scene.integrator.method == "forward_euler"
+    n_q, dt, dyn = a.steps_per_quarter, a.dt, a.dynamic
+    up = np.zeros_like(a.V[dyn])
+    up[:, 2] = a.profile[dyn]
+    for q in range(1, 7):
+        n = q * n_q
+        a._advance(n - 1)
+        X, V = a.X.copy(), a.V.copy()
+        x_new = X + dt * V
+        v_new = V + dt * a.network.forces(X, V)  # the velocity the step reaches, before the event
+        a._advance(n)
+        np.testing.assert_allclose(a.X[dyn], x_new[dyn], rtol=0, atol=1e-12)
+        expected = {0: up, 1: -v_new[dyn], 2: -up, 3: -v_new[dyn]}[q % 4]
+        np.testing.assert_allclose(a.V[dyn], expected, rtol=0, atol=1e-12, err_msg=f"quarter {q}")
+        X, V = a.X.copy(), a.V.copy()
+        a._advance(n + 1)
+        np.testing.assert_allclose(a.X[dyn], (X + dt * V)[dyn], rtol=0, atol=1e-12)

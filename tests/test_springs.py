@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from adapter.springs import momentum_rate, network_from_edges, region_constants
+from adapter.springs import momentum_rate, network_from_edges, region_constants, smooth_step
 
 
 def _three_nodes(form):
@@ -61,3 +61,23 @@ def test_region_constants_high_in_pivot_low_at_ends():
     np.testing.assert_allclose(k, [40, 40, 400, 400, 20, 20])
     mid = region_constants(np.array([0.27]), 0.27, 0.55, 40, 400, 20, 0.05)
     assert 40 < mid[0] < 400
+
+
+def test_default_form_is_the_papers_and_a_symmetric_network_has_no_momentum_rate():
+    X0 = np.array([[0.0, 0, 0], [1.0, 0, 0], [3.0, 0, 0]])
+    k = np.array([10.0, 20.0, 40.0])
+    default = network_from_edges(X0, [[0, 1], [1, 2]], k, mu=0.5, nu=0.1)
+    _, paper = _three_nodes("paper")
+    X = X0 + np.array([[0, 0.2, 0], [0.1, 0, 0], [0.4, 0, 0.1]])
+    V = np.zeros_like(X)
+    np.testing.assert_array_equal(default.forces(X, V), paper.forces(X, V))
+    np.testing.assert_array_equal(default.forces_numpy(X, V), paper.forces_numpy(X, V))
+    _, sym = _three_nodes("symmetric")
+    assert momentum_rate(sym, X, V).tolist() == [0.0, 0.0, 0.0]
+
+
+def test_smooth_step_is_the_cubic_smoothstep():
+    # 3 t^2 - 2 t^3 with t = (x - edge) / width + 1/2, clipped to [0, 1]
+    x = np.array([-1.0, 0.375, 0.5, 0.625, 0.75, 2.0])
+    expected = [0.0, 0.15625, 0.5, 0.84375, 1.0, 1.0]
+    np.testing.assert_allclose(smooth_step(x, 0.5, 0.5), expected, rtol=0, atol=1e-15)
