@@ -1,6 +1,7 @@
 # whale-adapter -- every target installs what it needs first, idempotently (see README.md).
 #
 #   make run-case   the main job: pimpleFoam coupled to the step-server (SCENE, CASE, NP)
+#   make study      the flow study: three meshes (GCI), time step, self-propelled speed (SCENE, STUDY, NP)
 #   make test       lint + the whole test suite, OpenFOAM and ParaView included
 #   make dry-run    animate without fluid (SCENE, OUT, CYCLES)
 #   make bench      performance figures; make chart: the numerics study; make paraview: pictures
@@ -16,6 +17,7 @@ OUT ?= out/dry-run
 CYCLES ?=
 NP ?=
 CASE ?= runs/$(basename $(notdir $(SCENE)))
+STUDY ?= runs/study-$(basename $(notdir $(SCENE)))
 PYTEST_ARGS ?=
 # make mutation: the modules to mutate (default: all of pyproject's [tool.whale-adapter.mutation])
 MODULES ?=
@@ -23,11 +25,11 @@ JOBS ?= 2
 
 scene_args = $(if $(filter %.toml,$(SCENE)),--scene $(SCENE),--preset $(SCENE))
 
-.PHONY: help setup venv system openfoam plugin test lint dry-run calibrate run-case bench \
+.PHONY: help setup venv system openfoam plugin test lint dry-run calibrate run-case study bench \
         chart paraview paraview-deps mutation clean
 
 help:
-	@sed -n '1,7p' Makefile
+	@sed -n '1,/^$$/p' Makefile
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -66,6 +68,10 @@ calibrate: venv
 
 run-case: venv system openfoam plugin
 	$(BIN)/whale-adapter run-case $(scene_args) --case $(CASE) $(if $(NP),--np $(NP))
+
+# hours on 2 cores (docs/case.md, "The flow study"); run again to continue a stopped study
+study: venv system openfoam plugin
+	$(BIN)/whale-adapter study $(scene_args) --out $(STUDY) $(if $(NP),--np $(NP))
 
 bench: venv
 	$(BIN)/python scripts/bench.py

@@ -129,7 +129,11 @@ def register(subparsers) -> None:
     p.add_argument("--cell-size", type=float, help="flow cell size at the whale (m): the "
                    "tolerance is 0.1 of it")
     p.add_argument("--flow-dt", type=float, help="flow time step (s): the largest step")
-    p.add_argument("--tolerance", type=float, help="surface tolerance (m), for a dry-run")
+    p.add_argument("--tolerance", type=float, help="surface tolerance (m), for a dry-run; with "
+                   "--flow-study: the figures' tolerance, a fraction (0.05 = 5 %%)")
+    p.add_argument("--flow-study", metavar="DIR", help="a finished `whale-adapter study` "
+                   "folder: offer the coarsest flow mesh whose figures lie within --tolerance "
+                   "of the extrapolated values (docs/case.md, 'The flow study')")
     p.add_argument("--fps", type=float, help="dry-run output frames per second")
     p.add_argument("--nodes", type=int)
     p.add_argument("--method", choices=sorted(METHODS))
@@ -140,6 +144,8 @@ def register(subparsers) -> None:
 def _cmd_choose(args: argparse.Namespace) -> int:
     from .scene import load_scene
 
+    if args.flow_study:
+        return _choose_flow_mesh(args)
     scene = load_scene(args.scene, preset=args.preset)
     if args.cell_size:
         tol, max_dt = 0.1 * args.cell_size, args.flow_dt
@@ -149,5 +155,34 @@ def _cmd_choose(args: argparse.Namespace) -> int:
         raise SystemExit("whale-adapter choose: give --cell-size (coupled) or --tolerance")
     report = choose(scene, tol, max_dt, nodes=args.nodes, method=args.method, dt=args.dt,
                     log=print)
+    print(json.dumps(report, indent=2))
+    return 0
+
+
+def _choose_flow_mesh(args: argparse.Namespace) -> int:
+    """``choose --flow-study DIR --tolerance F``: the flow mesh for a tolerance."""
+    from pathlib import Path
+
+    from .errors import AdapterError
+    from .study import RESULT, choose_flow_mesh
+
+    if not args.tolerance or args.tolerance <= 0:
+        raise AdapterError("choose --flow-study: give --tolerance, a fraction (0.05 = 5 %)")
+    path = Path(args.flow_study) / RESULT
+    if not path.is_file():
+        raise AdapterError(f"{path} is missing: run `whale-adapter study --out "
+                           f"{args.flow_study}` first")
+    report = choose_flow_mesh(json.loads(path.read_text()), args.tolerance)
+    if report["mesh"] is None:
+        need = report.get("background_cell_m_needed")
+        print(f"no mesh of the study is within {args.tolerance:.1%}: the finest differs by "
+              f"{report['worst_difference']:.1%} from the extrapolated values"
+              + (f"; a background cell of about {need:.3g} m would reach it (from the observed"
+                 " order)" if need else ""))
+    else:
+        print(f"mesh-{report['mesh']} (background cell {report['background_cell_m']:.4g} m, "
+              f"{report['cells']:,} cells, {report['wall_s_per_cycle']:.0f} s per stroke "
+              f"cycle): every figure within {report['worst_difference']:.2%} of the "
+              f"extrapolated values (tolerance {args.tolerance:.1%})")
     print(json.dumps(report, indent=2))
     return 0

@@ -3,7 +3,7 @@
 Each sub-command lives in the module of its idea and registers itself here through a
 ``register(subparsers)`` function: dry-run and calibrate (:mod:`adapter.dryrun`,
 :mod:`adapter.calibration`), geometry (:mod:`adapter.geometry`), serve (:mod:`adapter.server`),
-run-case (:mod:`adapter.case`).
+run-case (:mod:`adapter.case`), study (:mod:`adapter.study`).
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ _COMMAND_MODULES = (
     "adapter.calibration",
     "adapter.server",
     "adapter.case",
+    "adapter.study",
     "adapter.numerics",
     "adapter.paraview_report",
 )
@@ -66,7 +67,8 @@ def _terminate(signum, frame):
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if args.command == "run-case" and threading.current_thread() is threading.main_thread():
+    main_thread = threading.current_thread() is threading.main_thread()
+    if args.command in ("run-case", "study") and main_thread:
         signal.signal(signal.SIGTERM, _terminate)
     try:
         return int(args.func(args) or 0)

@@ -1,0 +1,241 @@
+"""The flow study (adapter/study.py, adapter/gci.py): the GCI arithmetic against the worked
+example of Celik et al. (2008), the three meshes' cell sizes, the study's machinery with a
+model runner (known convergence, known self-propelled speed, stop and resume, chart, chooser),
+and the study on the smoke whale with the real pimpleFoam."""
+
+import json
+import math
+import time
+
+import pytest
+
+from adapter import case as C
+from adapter import gci as G
+from adapter import study as S
+from adapter.errors import AdapterError
+
+from .conftest import NEEDS_FOAM_AND_PLUGIN
+
+
+def test_gci_reproduces_celik_2008_table_1():
+    """Celik et al. (2008), J. Fluids Eng. 130(7) 078001, Table 1, first column (2D meshes of
+    18,000, 8,000 and 4,500 cells on the same domain; the reattachment length 6.063, 5.972,
+    5.863). Published: r21 = 1.5, r32 = 1.333, p = 1.53, phi_ext21 = 6.1685, e_a21 = 1.5 %,
+    e_ext21 = 1.7 %, GCI_fine21 = 2.2 %."""
+    h = [G.representative_h(n, 76.0, dim=2) for n in (18000, 8000, 4500)]
+    r21, r32 = h[1] / h[0], h[2] / h[1]
+    assert round(r21, 3) == 1.5 and round(r32, 3) == 1.333
+    g = G.gci(6.063, 5.972, 5.863, r21, r32)
+    assert g["convergence"] == "monotone"
+    assert round(g["p"], 2) == 1.53
+    assert round(g["extrapolated"], 4) == 6.1685
+    assert round(100 * g["e_a"], 1) == 1.5
+    assert round(100 * g["e_ext"], 1) == 1.7
+    assert round(100 * g["gci_fine"], 1) == 2.2
+    assert g["gci_fine_abs"] == pytest.approx(g["gci_fine"] * 6.063)
+
+
+def test_gci_with_one_ratio_is_the_closed_form_and_classifies_convergence():
+    r = 1.3
+    f1, f2, f3 = 10.0, 10.5, 11.4  # monotone: R = 0.5 / 0.9
+    g = G.gci(f1, f2, f3, r)
+    p = math.log((f3 - f2) / (f2 - f1)) / math.log(r)
+    assert g["p"] == pytest.approx(p, rel=1e-12)
+    assert g["extrapolated"] == pytest.approx(f1 + (f1 - f2) / (r**p - 1))
+    assert g["gci_fine_abs"] == pytest.approx(1.25 * 0.5 / (r**p - 1))
+    # an exact power law: f = 3 + 2 h^2 on h = 1, 1.3, 1.69 gives p = 2 and f_ext = 3
+    fs = [3 + 2 * hh**2 for hh in (1.0, 1.3, 1.69)]
+    g2 = G.gci(*fs, 1.3)
+    assert g2["p"] == pytest.approx(2.0, rel=1e-9)
+    assert g2["extrapolated"] == pytest.approx(3.0, rel=1e-12)
+    assert G.gci(10.0, 9.8, 10.3, r)["convergence"] == "oscillatory"
+    div = G.gci(10.0, 11.0, 11.5, r)
+    assert div["convergence"] == "divergent" and div["gci_fine"] is None
+
+
+def _smoke_with_layers(smoke_scene):
+    # the automatic step (dt_s = 0): the study fixes mesh 2's on all three
+    return smoke_scene.replace(case={"layers": 3, "first_layer_m": 0.05,
+                                     "layer_expansion": 1.5, "dt_s": 0.0,
+                                     "writes_per_cycle": 4})
+
+
+def test_three_meshes_scale_every_cell_by_the_ratio(tmp_path, smoke_scene, smoke_surface):
+    """Background cell and the prism stack scale by r (first layer kept), dt is the same on
+    all three; the dictionaries prepare_case writes carry it."""
+    scene = _smoke_with_layers(smoke_scene)
+    r = 1.4
+    cases = {c["name"]: c for c in S.plan_cases(scene, smoke_surface, r, (0.9, 1.0, 1.1))}
+    assert list(cases) == ["mesh-3/case", "mesh-2/case", "mesh-1/case", "mesh-2/dt-half",
+                           "mesh-2/speed-0.9", "mesh-2/speed-1.1"]
+    stack0 = S.stack_thickness(0.05, 3, 1.5)
+    params = {}
+    for k in (1, 2, 3):
+        sc = cases[f"mesh-{k}/case"]["scene"]
+        assert sc.case.background_cell == pytest.approx(scene.case.background_cell * r ** (k - 2))
+        assert sc.case.first_layer_m == 0.05
+        assert S.stack_thickness(sc.case.first_layer_m, sc.case.layers,
+                                 sc.case.layer_expansion) == pytest.approx(stack0 * r ** (k - 2),
+                                                                           rel=1e-5)
+        assert sc.case.refinement == scene.case.refinement
+        params[k] = C.prepare_case(sc, tmp_path / f"m{k}", surface=smoke_surface)
+        snappy = C.parsed_dict(tmp_path / f"m{k}" / "system" / "snappyHexMeshDict")
+        assert snappy["addLayersControls"]["expansionRatio"] == pytest.approx(
+            sc.case.layer_expansion)
+        assert snappy["addLayersControls"]["firstLayerThickness"] == pytest.approx(0.05)
+    h = {k: math.prod(params[k].cell_size) ** (1 / 3) for k in params}
+    assert h[2] / h[1] == pytest.approx(r, rel=0.08) and h[3] / h[2] == pytest.approx(r, rel=0.08)
+    assert params[1].delta_t == params[2].delta_t == params[3].delta_t
+    half = C.case_parameters(cases["mesh-2/dt-half"]["scene"], smoke_surface.points.min(axis=0),
+                             smoke_surface.points.max(axis=0), length=smoke_surface.length)
+    assert half.delta_t == params[2].delta_t / 2
+    assert params[1].delta_t != C.case_parameters(
+        S.mesh_scene(scene, 1, r), smoke_surface.points.min(axis=0),
+        smoke_surface.points.max(axis=0), length=smoke_surface.length).delta_t
+    assert cases["mesh-2/speed-1.1"]["scene"].flow.speed_m_s == pytest.approx(
+        1.1 * scene.flow.speed_m_s)
+    with pytest.raises(AdapterError, match="at least 1.3"):
+        S.plan_cases(scene, smoke_surface, 1.2)
+
+
+def test_layer_rule_changes_the_layer_count_when_the_expansion_cannot_reach():
+    n, e = S.layer_rule(0.008, 3, 1.5, 1 / 2.0)  # 19 mm: below 3 x 8 mm at expansion 1
+    assert n == 2 and 1.0 <= e <= 3.0
+    assert S.stack_thickness(0.008, n, e) == pytest.approx(0.019, rel=1e-5)
+
+
+class _Model:
+    """A stand-in for OpenFOAM: figures that follow f = f0 + c h^2 on the background cell h,
+    mean Fx = 300 (U^2 - 1.96) + 0.5 h^2 at speed U; the case's summary as run_swim_and_glide
+    writes it. ``stop_at``: raise KeyboardInterrupt (a stop) at that call."""
+
+    def __init__(self, stop_at=None):
+        self.calls = []
+        self.stop_at = stop_at
+
+    def mesher(self, case):
+        (case / "constant" / "polyMesh").mkdir(parents=True, exist_ok=True)
+        (case / "constant" / "polyMesh" / "owner").write_text("model")
+        rec = C.read_record(case)
+        h = math.prod(rec["parameters"]["cell_size"]) ** (1 / 3)
+        rec["mesh"] = {"cells": int(1e5 / h**3)}
+        C.write_json(case / C.CASE_RECORD, rec)
+        return rec["mesh"]
+
+    def runner(self, case, record, tolerance, ranks, progress):
+        self.calls.append(case.relative_to(case.parents[1]).as_posix())
+        if self.stop_at is not None and len(self.calls) == self.stop_at:
+            raise KeyboardInterrupt
+        h = math.prod(record["parameters"]["cell_size"]) ** (1 / 3)
+        u = record["speed_m_s"]
+        cost = {"gliding_drag_N": 500 + 2 * h**2, "swimming_mean_fx_N":
+                300 * (u**2 - 1.96) + 0.5 * h**2, "swimming_mean_power_W": 1000 * u + 5 * h**2,
+                "mass_kg": 2000.0, "periodic_change": {"reached": True}}
+        summary = {"swimming_cost": cost, "steps": 10, "step_s": 0.5 * 1e5 / h**3 / 1e4,
+                   "cells": record["mesh"]["cells"], "yplus": {}}
+        C.write_json(case / C.SUMMARY, summary)
+        return summary
+
+
+def test_study_machinery_with_a_model_runner_stops_resumes_and_answers(tmp_path, smoke_scene,
+                                                                        smoke_surface, capsys):
+    out = tmp_path / "study"
+    kw = dict(ratio=1.3, speeds=(0.85, 1.0, 1.15), surface=smoke_surface, progress=False)
+    first = _Model(stop_at=3)
+    with pytest.raises(KeyboardInterrupt):
+        S.run_study(smoke_scene, out, runner=first.runner, mesher=first.mesher, **kw)
+    assert first.calls == ["mesh-3/case", "mesh-2/case", "mesh-1/case"]
+    second = _Model()
+    lines = []
+    study = S.run_study(smoke_scene, out, runner=second.runner, mesher=second.mesher,
+                        log=lines.append, **kw)
+    # the finished cases are skipped; the stopped one continues (not prepared again)
+    assert second.calls == ["mesh-1/case", "mesh-2/dt-half", "mesh-2/speed-0.85",
+                            "mesh-2/speed-1.15"]
+    assert any("mesh-3/case: finished earlier, skipped" in x for x in lines)
+    assert any("mesh-1/case: continuing it" in x for x in lines)
+    assert any("speed-0.85: mesh copied from mesh-2/case" in x for x in lines)
+    assert (out / "mesh-2/speed-0.85/constant/polyMesh/owner").read_text() == "model"
+    # a third run has nothing to do
+    third = _Model()
+    S.run_study(smoke_scene, out, runner=third.runner, mesher=third.mesher, **kw)
+    assert third.calls == []
+    # the arithmetic: p = 2 and the h -> 0 values
+    saved = json.loads((out / S.RESULT).read_text())
+    figs = saved["meshes"]["figures"]
+    for key, f0 in (("gliding_drag", 500.0), ("swimming_fx", 300 * (1.3**2 - 1.96)),
+                    ("swimming_power", 1300.0)):
+        assert figs[key]["convergence"] == "monotone"
+        assert figs[key]["p"] == pytest.approx(2.0, rel=1e-6)
+        assert figs[key]["extrapolated"] == pytest.approx(f0, abs=1e-6)
+    h2 = saved["cases"]["mesh-2/case"]["background_cell_m"]
+    assert figs["swimming_fx"]["difference"]["2"] == pytest.approx(0.5 * h2**2 / 500, rel=1e-6)
+    assert saved["time_step"]["swimming_power_change"] == 0.0
+    sp = saved["self_propelled"]
+    assert sp["status"] == "ok" and sp["bracketed"]
+    us = math.sqrt(1.96 - 0.5 * h2**2 / 300)
+    assert sp["speed_m_s"] == pytest.approx(us, rel=1e-9)
+    assert sp["power_W"] == pytest.approx(1000 * us + 5 * h2**2, rel=1e-9)
+    assert sp["cost_of_transport_J_kg_m"] == pytest.approx(sp["power_W"] / (2000 * us))
+    # mesh 2's band: 1.25 x 0.5 h2^2 on Fx, over dFx/dU = 600 U*
+    assert sp["speed_uncertainty_m_s"] == pytest.approx(1.25 * 0.5 * h2**2 / (600 * us),
+                                                        rel=1e-6)
+    assert (out / S.CHART).stat().st_size > 10_000
+    table = S.format_study(study)
+    assert "mean power (W)" in table and "self-propelled speed" in table
+    # the chooser: the coarsest mesh within the tolerance
+    d = {k: max(g["difference"][str(k)] for g in figs.values()) for k in (1, 2, 3)}
+    assert d[1] < d[2] < d[3]
+    assert S.choose_flow_mesh(saved, d[2] * 1.01)["mesh"] == 2
+    assert S.choose_flow_mesh(saved, d[3] * 1.01)["mesh"] == 3
+    none = S.choose_flow_mesh(saved, d[1] / 2)
+    assert none["mesh"] is None and none["background_cell_m_needed"] < saved["cases"][
+        "mesh-1/case"]["background_cell_m"]
+    from adapter.cli import main
+
+    assert main(["choose", "--flow-study", str(out), "--tolerance", str(d[2] * 1.01)]) == 0
+    assert "mesh-2 (background cell" in capsys.readouterr().out
+    # another plan in the same folder is refused
+    with pytest.raises(AdapterError, match="another plan"):
+        S.run_study(smoke_scene, out, runner=third.runner, mesher=third.mesher,
+                    **{**kw, "ratio": 1.5})
+
+
+#: the smoke whale with long flow steps: 8 a cycle (a binary period of 8 s, steps of 1 s),
+#: two cycles (16 steps) per run: the start-up and one measured cycle
+FAST = {"stroke": {"frequency_hz": 0.125, "ramp_cycles": 1.0},
+        "case": {"cycles": 2.0, "dt_s": 1.0, "writes_per_cycle": 2, "gliding": True,
+                 "inflow_ramp_cycles": 0.5}}
+
+
+def _foam(test):
+    for mark in reversed(NEEDS_FOAM_AND_PLUGIN):
+        test = mark(test)
+    return test
+
+
+@_foam
+def test_study_on_the_smoke_whale_with_pimplefoam(tmp_path, smoke_scene, smoke_surface):
+    """The mesh part on three real smoke meshes (blockMesh, snappyHexMesh, the gliding and
+    swimming pair with the step-server), tiny cycles; study.json and the chart."""
+    scene = smoke_scene.replace(**FAST)
+    out = tmp_path / "study"
+    t0 = time.perf_counter()
+    study = S.run_study(scene, out, ratio=1.3, parts=("meshes",), surface=smoke_surface,
+                        progress=False)
+    wall = time.perf_counter() - t0
+    assert study["failed"] == {} and study["not_finished"] == [], study
+    cells = [study["cases"][f"mesh-{k}/case"]["cells"] for k in (1, 2, 3)]
+    assert cells[0] > cells[1] > cells[2]
+    for k in (1, 2, 3):
+        rec = C.read_record(out / f"mesh-{k}" / "case")
+        assert rec["parameters"]["delta_t"] == 1.0
+        assert (out / f"mesh-{k}" / "case" / "gliding" / C.SUMMARY).is_file()
+    assert set(study["meshes"]["figures"]) == {"gliding_drag", "swimming_fx", "swimming_power"}
+    assert (out / S.CHART).is_file() and (out / S.RESULT).is_file()
+    # run again: every case finished, nothing runs
+    lines = []
+    S.run_study(scene, out, ratio=1.3, parts=("meshes",), surface=smoke_surface,
+                progress=False, log=lines.append)
+    assert sum("finished earlier, skipped" in x for x in lines) == 3, lines
+    print(f"smoke study, three meshes: {wall:.1f} s")
