@@ -103,25 +103,28 @@ def test_serves_mapped_animator_displacement(case, serve, animator, points, refe
     assert not (case / ".whale-adapter.sock").exists()
 
 
-def test_two_ranks_share_points_and_steps(case, serve, animator, points):
+def test_one_link_per_case_whatever_the_rank_count(case, serve, animator, points):
+    """The master rank of a 2-rank run sends both ranks' points (100 shared ones twice) in one
+    HELLO; a second client is refused as busy; the run ends with the link's BYE."""
     srv = serve(case)
-    a, b = Client(case), Client(case)
     pa, pb = points[:300], points[200:]                          # 100 points on both ranks
-    a.hello(pa, rank=0, n_ranks=2)
-    b.hello(pb, rank=1, n_ranks=2)
+    a = Client(case)
+    assert a.hello(np.concatenate([pa, pb]), n_ranks=2)[0] == 700
+    other = Client(case)
+    with pytest.raises(ServerSaid) as info:
+        other.hello(pb, n_ranks=2)
+    assert info.value.code == ErrorCode.BUSY and "one link per case" in info.value.message
     for t in TIMES[:3]:
-        _, da = a.request(t, (1, 1, 1), (0, 0, 1))
-        _, db = b.request(t, (2, 2, 2), (0, 0, 1))
-        assert np.array_equal(da[200:], db[:100])
-    for cl in (a, b):
-        cl.write(TIMES[2])                                        # written once
+        _, d = a.request(t, (3, 3, 3), (0, 0, 2))
+        assert np.array_equal(d[200:300], d[300:400])           # shared points: the same bits
+    a.write(TIMES[2])
     a.bye()
-    b.bye()
-    assert finished(srv) == 0
+    assert finished(srv) == 0                                    # no wait for a second rank
     rows = (case / "adapter" / "keypoints.csv").read_text().splitlines()[1:]
     assert len(rows) == 3
     assert np.array(rows[0].split(","), dtype=float)[-6:].tolist() == [3, 3, 3, 0, 0, 2]
-    assert srv.stats["steps"] == 3 and srv.stats["requests"] == 6
+    assert srv.stats["steps"] == 3 and srv.stats["requests"] == 3
+    assert srv.stats["links"] == 1 and srv.stats["ranks"] == 2
 
 
 def test_unknown_forces_leave_the_csv_fields_empty_never_nan(case, serve, points):
@@ -197,37 +200,36 @@ def test_restart_is_bit_identical(case, serve, points, source):
 
 
 def test_rewind_within_one_server_on_a_fresh_connection(case, serve, points):
-    srv = serve(case)
-    a, keeper = Client(case), Client(case)
-    a.hello(points[:300], rank=0, n_ranks=2)
-    keeper.hello(points[300:], rank=1, n_ranks=2)
+    srv = serve(case, keep_serving=True)
+    a = Client(case)
+    a.hello(points[:300], n_ranks=2)
     original = {}
     for t in TIMES:
         original[t] = a.request(t)[0]
-        keeper.request(t)
     with pytest.raises(ServerSaid) as info:
         a.request(TIMES[1])                                    # not a repeat: backwards
     assert info.value.code == ErrorCode.TIME_BACKWARDS
-    b = Client(case)                                           # rank 0, restarted
-    b.hello(points[:300], rank=0, n_ranks=2)
+    b = Client(case)                                           # the run, restarted
+    b.hello(points[:300], n_ranks=2)
     assert [b.request(t)[0] for t in TIMES[1:]] == [original[t] for t in TIMES[1:]]
     b.bye()
-    keeper.bye()
+    srv.stop()
     assert finished(srv) == 0
+    assert srv.stats["links"] == 2
 
 
 def test_bad_clients_do_not_kill_the_server(case, serve, points):
     srv = serve(case)
     far = Client(case)
     with pytest.raises(ServerSaid) as info:
-        far.hello(points + [0.0, 0.0, 100.0], rank=0)
+        far.hello(points + [0.0, 0.0, 100.0])
     assert info.value.code == ErrorCode.BAD_HELLO and " m from the whale" in info.value.message
     good = Client(case)
     good.hello(points[:50])
     good.request(TIMES[0])
     sent = [
         b"GARBAGE GARBAGE GARBAGE",
-        struct.pack("<4sHHII", b"WHAL", 1, 3, 2**31, 1),        # oversized
+        struct.pack("<4sHHII", b"WHAL", 2, 3, 2**31, 1),        # oversized
         wire.encode_frame(MessageType.REQUEST, wire.pack_request(0.1), 1)[:30],   # truncated
         wire.encode_frame(MessageType.REQUEST, wire.pack_request(0.1), 1),        # no HELLO
     ]
@@ -239,16 +241,16 @@ def test_bad_clients_do_not_kill_the_server(case, serve, points):
             bad.reply()
         assert info.value.code == ErrorCode.BAD_FRAME
         bad.sock.close()
-    v2 = Client(case)
-    v2.sock.sendall(wire.encode_frame(MessageType.HELLO, wire.pack_hello(0, 1, points), 1,
-                                      version=2))
+    v1 = Client(case)
+    v1.sock.sendall(wire.encode_frame(MessageType.HELLO, wire.pack_hello(1, points), 1,
+                                      version=1))
     with pytest.raises(ServerSaid) as info:
-        v2.reply()
+        v1.reply()
     assert info.value.code == ErrorCode.VERSION_MISMATCH
-    assert "version 2" in info.value.message and "version 1" in info.value.message
+    assert "version 1" in info.value.message and "version 2" in info.value.message
     busy = Client(case)
     with pytest.raises(ServerSaid) as info:
-        busy.hello(points[:5], rank=0)                          # rank 0 is connected
+        busy.hello(points[:5])                                  # the case has its link
     assert info.value.code == ErrorCode.BUSY
     good.request(TIMES[1])                                      # still serving
     good.bye()
@@ -276,7 +278,7 @@ def test_non_loopback_tcp_needs_a_token(case, scene, animator):
 def test_tcp_loopback(case, serve, points):
     srv = serve(case, tcp_port=0)
     sock = socket.create_connection(srv.tcp_address)
-    wire.send_frame(sock, MessageType.HELLO, wire.pack_hello(0, 1, points[:10]), 1)
+    wire.send_frame(sock, MessageType.HELLO, wire.pack_hello(1, points[:10]), 1)
     assert wire.read_frame(sock, 10).type == MessageType.WELCOME
     wire.send_frame(sock, MessageType.BYE, b"", 2)
     sock.close()
@@ -311,7 +313,7 @@ def test_vanished_client_saves_state(case, serve, points):
     assert (case / "adapter" / f"state_{time_name(TIMES[1])}.npz").exists()
 
 
-def test_model_failure_reaches_every_client(case, serve, scene, points):
+def test_model_failure_reaches_the_client(case, serve, scene, points):
     class Failing(Animator):
         def displacement(self, t):
             if t > 0.015:
@@ -319,15 +321,12 @@ def test_model_failure_reaches_every_client(case, serve, scene, points):
             return super().displacement(t)
 
     srv = serve(case, animator=Failing(scene))
-    a, b = Client(case), Client(case)
-    a.hello(points[:10], rank=0, n_ranks=2)
-    b.hello(points[10:20], rank=1, n_ranks=2)
+    a = Client(case)
+    a.hello(points[:20], n_ranks=2)
     a.request(0.01)
-    b.request(0.01)
-    for cl in (a, b):
-        with pytest.raises(ServerSaid) as info:
-            cl.request(0.02)
-        assert info.value.code == ErrorCode.MODEL_FAILURE and "dt_s" in info.value.message
+    with pytest.raises(ServerSaid) as info:
+        a.request(0.02)
+    assert info.value.code == ErrorCode.MODEL_FAILURE and "dt_s" in info.value.message
     assert finished(srv) == 1
 
 

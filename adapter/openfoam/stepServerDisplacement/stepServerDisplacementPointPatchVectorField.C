@@ -104,79 +104,6 @@ stepServerDisplacementPointPatchVectorField::endpoint() const
 }
 
 
-void stepServerDisplacementPointPatchVectorField::connect()
-{
-    const polyMesh& mesh = this->internalField().mesh()();
-
-    // Undeformed coordinates: the motion solver's own points0
-    // (points0 if present, else polyMesh/points from constant), not the
-    // current, possibly already moved, mesh points
-    const pointIOField points0(points0MotionSolver::points0IO(mesh));
-    if (points0.size() != mesh.nPoints())
-    {
-        FatalErrorInFunction
-            << "stepServer: " << points0.objectPath() << " has "
-            << points0.size() << " points, the mesh " << mesh.nPoints()
-            << exit(FatalError);
-    }
-
-    const labelList& meshPoints = this->patch().meshPoints();
-    std::vector<double> pts;
-    pts.reserve(3*meshPoints.size());
-    for (const label pointi : meshPoints)
-    {
-        const point& p = points0[pointi];
-        pts.push_back(p.x());
-        pts.push_back(p.y());
-        pts.push_back(p.z());
-    }
-
-    const stepServer::Endpoint ep(endpoint());
-    state_->client.reset(new stepServer::stepServerClient(ep));
-
-    try
-    {
-        state_->client->connect();
-    }
-    catch (const stepServer::stepServerError& e)
-    {
-        state_->failed = true;
-        FatalErrorInFunction
-            << "stepServer: " << e.what() << nl
-            << "    Is the step-server running for this case? Start it with:"
-            << nl << "        whale-adapter serve --case "
-            << this->db().time().globalPath().c_str()
-            << (ep.port > 0 ? "   (listening on TCP " + ep.describe() + ")" : std::string()).c_str()
-            << nl << "    and check the 'socket' (or 'port') entry of patch "
-            << this->patch().name() << " in pointDisplacement."
-            << exit(FatalError);
-    }
-
-    stepServer::Welcome w;
-    try
-    {
-        w = state_->client->hello
-        (
-            Pstream::myProcNo(), Pstream::nProcs(), token_, pts
-        );
-    }
-    catch (const stepServer::stepServerError& e)
-    {
-        state_->failed = true;
-        FatalErrorInFunction
-            << "stepServer: HELLO failed on patch " << this->patch().name()
-            << ": " << e.what() << exit(FatalError);
-    }
-
-    Info<< "stepServer: connected to " << ep.describe().c_str()
-        << " on patch " << this->patch().name()
-        << " (" << Pstream::nProcs() << " rank(s), master sent "
-        << meshPoints.size() << " points); max mapping distance "
-        << w.maxMappingDistance << " m, internal step "
-        << w.internalStep << " s" << endl;
-}
-
-
 void stepServerDisplacementPointPatchVectorField::patchForces
 (
     vector& fp,
@@ -348,16 +275,20 @@ void stepServerDisplacementPointPatchVectorField::updateCoeffs()
             << " OpenFOAM from the latest time." << exit(FatalError);
     }
 
-    const bool first = !state_->client;
+    const bool first = !state_->started;
     if (first)
     {
         connect();
     }
 
-    // Forces from the fields at this mesh update (last completed step);
-    // NaN for the first request of a connection
+    const auto start = std::chrono::steady_clock::now();
+
+    // Forces from the fields at this mesh update (last completed step),
+    // summed over the ranks; NaN for the first request of a connection
     vector fp, fv;
     patchForces(fp, fv);
+    reduce(fp, sumOp<vector>());
+    reduce(fv, sumOp<vector>());
     if (first)
     {
         const scalar nan = std::numeric_limits<scalar>::quiet_NaN();
@@ -365,37 +296,19 @@ void stepServerDisplacementPointPatchVectorField::updateCoeffs()
         fv = fp;
     }
 
-    std::vector<double> d;
-    try
+    // The master's REQUEST for all points, each rank's slice scattered
+    this->operator==(exchange(fp, fv));
+
+    if (Pstream::master())
     {
-        const auto start = std::chrono::steady_clock::now();
-        d = state_->client->request
-        (
-            t.value(),
-            {fp.x(), fp.y(), fp.z()},
-            {fv.x(), fv.y(), fv.z()}
-        );
+        // The coupling cost per step as OpenFOAM sees it: forces reduced,
+        // request and reply, displacements scattered
         state_->exchangeSeconds += std::chrono::duration<double>
         (
             std::chrono::steady_clock::now() - start
         ).count();
         ++state_->nRequests;
     }
-    catch (const stepServer::stepServerError& e)
-    {
-        state_->failed = true;
-        FatalErrorInFunction
-            << "stepServer: REQUEST at time " << t.timeName()
-            << " on patch " << this->patch().name() << " failed: "
-            << e.what() << exit(FatalError);
-    }
-
-    vectorField disp(this->size());
-    forAll(disp, i)
-    {
-        disp[i] = vector(d[3*i], d[3*i + 1], d[3*i + 2]);
-    }
-    this->operator==(disp);
 
     fixedValuePointPatchField<vector>::updateCoeffs();
 }
