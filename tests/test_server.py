@@ -355,3 +355,64 @@ def test_command_line(case, points):
             proc.kill()
     assert proc.returncode == 0, err
     assert "1 requests served" in out
+
+
+def test_endpoint_file_names_where_the_server_listens(case, serve, points):
+    """UNIX only: the socket path; TCP: host and port (never the token); written by rename,
+    removed at exit."""
+    srv = serve(case)
+    text = (case / ".whale-adapter.endpoint").read_text()
+    assert f"unix {case / '.whale-adapter.sock'}\n" in text and f"pid {os.getpid()}\n" in text
+    Client(case).bye()
+    srv.stop()
+    finished(srv)
+    assert not (case / ".whale-adapter.endpoint").exists()
+
+    srv = serve(case, tcp_port=0, host="localhost", token="s3cret")
+    fields = dict(line.split(" ", 1) for line in
+                  (case / ".whale-adapter.endpoint").read_text().splitlines()
+                  if not line.startswith("#"))
+    assert fields["host"] == "localhost" and int(fields["port"]) == srv.tcp_address[1]
+    assert "unix" not in fields and "s3cret" not in str(fields)
+    assert not list(case.glob("*.tmp"))
+    c = Client(address=(fields["host"], int(fields["port"])))
+    c.hello(points[:5], token="s3cret")
+    c.bye()
+    assert finished(srv) == 0
+    assert not (case / ".whale-adapter.endpoint").exists()
+
+
+def test_another_hosts_server_is_never_judged_stale(case, scene, animator):
+    """A pid file from another host: this host cannot probe its socket nor its pid, so the
+    start is refused naming that host, and its socket and endpoint are left alone."""
+    (case / ".whale-adapter.pid").write_text("4242 node-elsewhere\n")
+    (case / ".whale-adapter.endpoint").write_text("host node-elsewhere\nport 4000\n")
+    stale_looking = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    stale_looking.bind(str(case / ".whale-adapter.sock"))          # refuses connections here
+    stale_looking.close()
+    with pytest.raises(ServerStartError, match="on host node-elsewhere .pid 4242."):
+        StepServer(case, scene, animator=animator).start()
+    for name in (".whale-adapter.pid", ".whale-adapter.endpoint", ".whale-adapter.sock"):
+        assert (case / name).exists(), name
+    # the same host's pid file: the dead socket is judged stale and replaced
+    (case / ".whale-adapter.pid").write_text(f"4242 {socket.gethostname()}\n")
+    srv = StepServer(case, scene, animator=animator)
+    srv.start()
+    assert "unix " in (case / ".whale-adapter.endpoint").read_text()
+    srv._finish()
+
+
+def test_token_file_must_be_private(tmp_path, monkeypatch):
+    from adapter.server import resolve_token
+
+    f = tmp_path / "token"
+    f.write_text("s3cret\n")
+    f.chmod(0o644)
+    with pytest.raises(ServerStartError, match="chmod 600"):
+        resolve_token(f)
+    f.chmod(0o600)
+    assert resolve_token(f) == "s3cret"
+    monkeypatch.setenv("WHALE_ADAPTER_TOKEN", "from-env")
+    assert resolve_token(None) == "from-env"
+    monkeypatch.delenv("WHALE_ADAPTER_TOKEN")
+    assert resolve_token(None) is None

@@ -15,6 +15,8 @@
 #include "OPstream.H"
 #include "SubList.H"
 
+#include <cstdlib>
+
 // * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * //
 
 namespace Foam
@@ -78,8 +80,8 @@ void stepServerDisplacementPointPatchVectorField::connect()
             << "    Is the step-server running for this case? Start it with:"
             << nl << "        whale-adapter serve --case "
             << this->db().time().globalPath().c_str()
-            << (ep.port > 0 ? "   (listening on TCP " + ep.describe() + ")" : std::string()).c_str()
-            << nl << "    and check the 'socket' (or 'port') entry of patch "
+            << "  (--tcp PORT --host H to listen on TCP)" << nl
+            << "    and check the 'socket', 'port' or 'endpoint' entry of patch "
             << this->patch().name() << " in pointDisplacement."
             << exit(FatalError);
     }
@@ -87,7 +89,13 @@ void stepServerDisplacementPointPatchVectorField::connect()
     stepServer::Welcome w;
     try
     {
-        w = state_->client->hello(Pstream::nProcs(), token_, pts);
+        // The token from the environment only: never from (or into) a
+        // file of the case
+        const char* token = std::getenv("WHALE_ADAPTER_TOKEN");
+        w = state_->client->hello
+        (
+            Pstream::nProcs(), token ? std::string(token) : std::string(), pts
+        );
     }
     catch (const stepServer::stepServerError& e)
     {
@@ -97,7 +105,8 @@ void stepServerDisplacementPointPatchVectorField::connect()
             << ": " << e.what() << exit(FatalError);
     }
 
-    Info<< "stepServer: connected to " << ep.describe().c_str()
+    Info<< "stepServer: connected to "
+        << state_->client->connectedTo().c_str()
         << " on patch " << this->patch().name()
         << " (one link for " << Pstream::nProcs() << " rank(s), master sent "
         << pts.size()/3 << " points); max mapping distance "

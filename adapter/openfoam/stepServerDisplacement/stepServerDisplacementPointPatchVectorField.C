@@ -39,7 +39,7 @@ void stepServerDisplacementPointPatchVectorField::readEntries
     socket_ = dict.getOrDefault<fileName>("socket", fileName::null);
     host_ = dict.getOrDefault<string>("host", "127.0.0.1");
     port_ = dict.getOrDefault<label>("port", 0);
-    token_ = dict.getOrDefault<string>("token", string::null);
+    endpointFile_ = dict.getOrDefault<fileName>("endpoint", fileName::null);
     connectTimeout_ = dict.getOrDefault<scalar>("connectTimeout", 5);
     replyTimeout_ = dict.getOrDefault<scalar>("replyTimeout", 120);
     rhoInf_ = dict.getOrDefault<scalar>("rhoInf", 1025);
@@ -50,10 +50,23 @@ void stepServerDisplacementPointPatchVectorField::readEntries
             << "stepServer: port " << port_
             << " out of range, expected 1..65535" << exit(FatalIOError);
     }
-    if (dict.found("port") && dict.found("socket"))
+    if
+    (
+        int(dict.found("port")) + int(dict.found("socket"))
+      + int(dict.found("endpoint")) > 1
+    )
     {
         FatalIOErrorInFunction(dict)
-            << "stepServer: give either socket (UNIX) or port (TCP), not both"
+            << "stepServer: give one of socket (UNIX), port (TCP) or endpoint"
+            << " (the server's endpoint file), not several"
+            << exit(FatalIOError);
+    }
+    if (dict.found("token"))
+    {
+        FatalIOErrorInFunction(dict)
+            << "stepServer: a 'token' entry is not read (it would be written"
+            << " into every time folder): remove it and set the environment"
+            << " variable WHALE_ADAPTER_TOKEN for the master rank instead"
             << exit(FatalIOError);
     }
     if (dict.found("host") && !dict.found("port"))
@@ -86,17 +99,23 @@ stepServerDisplacementPointPatchVectorField::endpoint() const
         ep.host = host_;
         ep.port = int(port_);
     }
-    else if (socket_.empty())
-    {
-        // The global case: one socket for all ranks
-        ep.socketPath =
-            this->db().time().globalPath()/".whale-adapter.sock";
-    }
-    else
+    else if (!socket_.empty())
     {
         fileName s(socket_);
         s.expand();
         ep.socketPath = s;
+    }
+    else if (!endpointFile_.empty())
+    {
+        fileName f(endpointFile_);
+        f.expand();
+        ep.endpointFile = f;
+    }
+    else
+    {
+        // The global case's endpoint file, as the server writes it
+        ep.endpointFile =
+            this->db().time().globalPath()/".whale-adapter.endpoint";
     }
     ep.connectTimeout = connectTimeout_;
     ep.replyTimeout = replyTimeout_;
@@ -164,7 +183,7 @@ stepServerDisplacementPointPatchVectorField
     socket_(),
     host_("127.0.0.1"),
     port_(0),
-    token_(),
+    endpointFile_(),
     connectTimeout_(5),
     replyTimeout_(120),
     rhoInf_(1025),
@@ -211,7 +230,7 @@ stepServerDisplacementPointPatchVectorField
     socket_(ptf.socket_),
     host_(ptf.host_),
     port_(ptf.port_),
-    token_(ptf.token_),
+    endpointFile_(ptf.endpointFile_),
     connectTimeout_(ptf.connectTimeout_),
     replyTimeout_(ptf.replyTimeout_),
     rhoInf_(ptf.rhoInf_),
@@ -230,7 +249,7 @@ stepServerDisplacementPointPatchVectorField
     socket_(ptf.socket_),
     host_(ptf.host_),
     port_(ptf.port_),
-    token_(ptf.token_),
+    endpointFile_(ptf.endpointFile_),
     connectTimeout_(ptf.connectTimeout_),
     replyTimeout_(ptf.replyTimeout_),
     rhoInf_(ptf.rhoInf_),
@@ -354,9 +373,9 @@ void stepServerDisplacementPointPatchVectorField::write(Ostream& os) const
         os.writeEntry("host", host_);
         os.writeEntry("port", port_);
     }
-    if (!token_.empty())
+    if (!endpointFile_.empty())
     {
-        os.writeEntry("token", token_);
+        os.writeEntry("endpoint", endpointFile_);
     }
     os.writeEntry("connectTimeout", connectTimeout_);
     os.writeEntry("replyTimeout", replyTimeout_);

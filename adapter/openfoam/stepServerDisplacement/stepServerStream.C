@@ -6,11 +6,14 @@
 
 #include "stepServerClient.H"
 
+#include <algorithm>
 #include <arpa/inet.h>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
 #include <fcntl.h>
+#include <fstream>
+#include <netdb.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
@@ -43,105 +46,195 @@ std::string Endpoint::describe() const
     if (port > 0)
     {
         std::ostringstream os;
-        os << "tcp://" << host << ':' << port;
+        os << "tcp://" << (host.find(':') != std::string::npos ? "[" + host + "]" : host)
+           << ':' << port;
         return os.str();
+    }
+    if (!endpointFile.empty())
+    {
+        return "the endpoint in " + endpointFile;
     }
     return socketPath;
 }
 
 
+bool Endpoint::resolve(Endpoint& target, std::string& why) const
+{
+    target = *this;
+    if (port > 0 || endpointFile.empty())
+    {
+        return true;
+    }
+    // The server's endpoint file: "key value" lines, '#' comments;
+    // "host H" + "port P" for TCP, else "unix PATH"
+    std::ifstream is(endpointFile);
+    if (!is)
+    {
+        why = "no endpoint file " + endpointFile + " (the server writes it "
+              "when it is ready)";
+        return false;
+    }
+    std::string line, h, u;
+    long p = 0;
+    while (std::getline(is, line))
+    {
+        std::istringstream ls(line);
+        std::string key, value;
+        if (!(ls >> key >> value) || key[0] == '#') continue;
+        if (key == "host") h = value;
+        else if (key == "port") p = std::strtol(value.c_str(), nullptr, 10);
+        else if (key == "unix") u = value;
+    }
+    target.endpointFile.clear();
+    if (!h.empty() && p > 0 && p < 65536)
+    {
+        target.host = h;
+        target.port = int(p);
+        return true;
+    }
+    if (!u.empty())
+    {
+        target.port = 0;
+        target.socketPath = u;
+        return true;
+    }
+    why = "endpoint file " + endpointFile + " names neither host and port "
+          "nor a unix socket";
+    return false;
+}
+
+
 // * * * * * * * * * * * * * * * Socket stream * * * * * * * * * * * * * * //
 
-int stepServerClient::tryConnectOnce(std::string& why) const
+namespace
 {
-    int fd = -1;
-    if (endpoint_.port > 0)
+
+//- Connect fd to addr within timeoutMs; 0 or -1 with errno set
+int connectWithin(int fd, const sockaddr* addr, socklen_t len, int timeoutMs)
+{
+    const int flags = ::fcntl(fd, F_GETFL, 0);
+    ::fcntl(fd, F_SETFL, flags | O_NONBLOCK);
+    int rc = ::connect(fd, addr, len);
+    if (rc < 0 && errno == EINPROGRESS)
     {
-        sockaddr_in addr{};
-        addr.sin_family = AF_INET;
-        addr.sin_port = htons(std::uint16_t(endpoint_.port));
-        if (inet_pton(AF_INET, endpoint_.host.c_str(), &addr.sin_addr) != 1)
+        pollfd pfd{fd, POLLOUT, 0};
+        rc = ::poll(&pfd, 1, timeoutMs);
+        if (rc == 1)
         {
-            throw stepServerError
-            (
-                "host '" + endpoint_.host + "' is not a numeric IPv4 address"
-            );
+            int err = 0;
+            socklen_t elen = sizeof(err);
+            ::getsockopt(fd, SOL_SOCKET, SO_ERROR, &err, &elen);
+            rc = (err == 0) ? 0 : -1;
+            errno = err;
         }
-        fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+        else
+        {
+            rc = -1;
+            errno = ETIMEDOUT;
+        }
+    }
+    if (rc == 0)
+    {
+        ::fcntl(fd, F_SETFL, flags);
+    }
+    return rc;
+}
+
+
+//- TCP to a host name or address, IPv4 or IPv6 (getaddrinfo, every
+//  address in turn)
+int connectTcp(const Endpoint& ep, std::string& why)
+{
+    addrinfo hints{};
+    hints.ai_family = AF_UNSPEC;
+    hints.ai_socktype = SOCK_STREAM;
+    addrinfo* res = nullptr;
+    const std::string port = std::to_string(ep.port);
+    const int gai = ::getaddrinfo(ep.host.c_str(), port.c_str(), &hints, &res);
+    if (gai != 0)
+    {
+        why = "cannot resolve host '" + ep.host + "': " + ::gai_strerror(gai);
+        return -1;
+    }
+    const int ms = int(std::max(1.0, 1000*std::min(ep.connectTimeout, 5.0)));
+    int fd = -1;
+    for (addrinfo* ai = res; ai && fd < 0; ai = ai->ai_next)
+    {
+        fd = ::socket(ai->ai_family, ai->ai_socktype | SOCK_CLOEXEC, ai->ai_protocol);
         if (fd < 0)
         {
             why = "socket(): " + errnoString(errno);
-            return -1;
+            continue;
         }
-        // Non-blocking connect bounded by the connect timeout
-        int flags = ::fcntl(fd, F_GETFL, 0);
-        ::fcntl(fd, F_SETFL, flags | O_NONBLOCK);
-        int rc = ::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr));
-        if (rc < 0 && errno == EINPROGRESS)
-        {
-            pollfd pfd{fd, POLLOUT, 0};
-            int ms = int(std::max(1.0, 1000*endpoint_.connectTimeout));
-            rc = ::poll(&pfd, 1, ms);
-            if (rc == 1)
-            {
-                int err = 0;
-                socklen_t len = sizeof(err);
-                ::getsockopt(fd, SOL_SOCKET, SO_ERROR, &err, &len);
-                rc = (err == 0) ? 0 : -1;
-                errno = err;
-            }
-            else
-            {
-                rc = -1;
-                errno = ETIMEDOUT;
-            }
-        }
-        if (rc < 0)
+        if (connectWithin(fd, ai->ai_addr, ai->ai_addrlen, ms) < 0)
         {
             why = errnoString(errno);
             ::close(fd);
-            return -1;
+            fd = -1;
+            continue;
         }
-        ::fcntl(fd, F_SETFL, flags);
         int one = 1;
         ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));
     }
-    else
-    {
-        sockaddr_un addr{};
-        addr.sun_family = AF_UNIX;
-        if (endpoint_.socketPath.size() >= sizeof(addr.sun_path))
-        {
-            throw stepServerError
-            (
-                "socket path '" + endpoint_.socketPath + "' is longer than "
-              + std::to_string(sizeof(addr.sun_path) - 1)
-              + " characters: use a shorter case path or TCP (port)"
-            );
-        }
-        std::strncpy
-        (
-            addr.sun_path, endpoint_.socketPath.c_str(),
-            sizeof(addr.sun_path) - 1
-        );
-        fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-        if (fd < 0)
-        {
-            why = "socket(): " + errnoString(errno);
-            return -1;
-        }
-        if
-        (
-            ::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr))
-          < 0
-        )
-        {
-            why = errnoString(errno);
-            ::close(fd);
-            return -1;
-        }
-    }
+    ::freeaddrinfo(res);
     return fd;
+}
+
+
+//- A UNIX socket; a path too long for sun_path goes through
+//  /proc/self/fd/<dir fd>/<name> (Linux), as the server binds it
+int connectUnix(const std::string& path, std::string& why)
+{
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::string target = path;
+    int dirFd = -1;
+    if (target.size() >= sizeof(addr.sun_path))
+    {
+        const auto slash = path.rfind('/');
+        const std::string dir = slash == std::string::npos ? "." : path.substr(0, slash);
+        dirFd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+        if (dirFd < 0)
+        {
+            why = "cannot open " + dir + ": " + errnoString(errno);
+            return -1;
+        }
+        target = "/proc/self/fd/" + std::to_string(dirFd) + "/"
+               + path.substr(slash + 1);
+    }
+    std::strncpy(addr.sun_path, target.c_str(), sizeof(addr.sun_path) - 1);
+    int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (fd < 0)
+    {
+        why = "socket(): " + errnoString(errno);
+    }
+    else if
+    (
+        ::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) < 0
+    )
+    {
+        why = errnoString(errno);
+        ::close(fd);
+        fd = -1;
+    }
+    if (dirFd >= 0) ::close(dirFd);
+    return fd;
+}
+
+} // End anonymous namespace
+
+
+int stepServerClient::tryConnectOnce(std::string& why)
+{
+    Endpoint target;
+    if (!endpoint_.resolve(target, why))
+    {
+        return -1;
+    }
+    connectedTo_ = target.describe();
+    return target.port > 0
+        ? connectTcp(target, why)
+        : connectUnix(target.socketPath, why);
 }
 
 
@@ -235,6 +328,8 @@ void stepServerClient::connect()
 
     std::ostringstream os;
     os << "cannot connect to the step-server at " << endpoint_.describe()
+       << (connectedTo_.empty() || connectedTo_ == endpoint_.describe()
+           ? std::string() : " (" + connectedTo_ + ")")
        << " (" << why << ", " << attempts << " attempts in "
        << endpoint_.connectTimeout << " s)";
     throw stepServerError(os.str());
