@@ -417,7 +417,8 @@ def _write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool
     else:
         d["boundaryField"]["whale"] = {
             "type": "stepServerDisplacement",
-            "socket": f'"$FOAM_CASE/{SOCKET_NAME}"',
+            # no socket/port: the master rank reads <case>/.whale-adapter.endpoint, where the
+            # server says it listens (UNIX socket or TCP); no token (the environment's)
             "connectTimeout": 10,
             "replyTimeout": 120,
             "rhoInf": scene.flow.rho_kg_m3,
@@ -776,28 +777,45 @@ def _server_command(case: Path, record: dict) -> list:
     return cmd
 
 
-def _start_server(case: Path, record: dict, timeout: float = 60.0) -> subprocess.Popen:
-    sock = case / SOCKET_NAME
-    if sock.exists():
-        sock.unlink()
+def _start_server(case: Path, record: dict, timeout: float = 60.0, host: str | None = None,
+                  port: int | None = None, token: str | None = None) -> subprocess.Popen:
+    """Start the step-server; return once it has published its endpoint file. TCP when a host
+    or a port is given. The token goes through the environment, never the command line."""
+    from .server import ENDPOINT_NAME, TOKEN_ENV
+
+    endpoint = case / ENDPOINT_NAME
     log = open(case / "log.server", "w")  # noqa: SIM115 - closed by _stop_server
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(_REPO), env.get("PYTHONPATH")]))
-    proc = subprocess.Popen(_server_command(case, record), cwd=case, stdout=log,
-                            stderr=subprocess.STDOUT, start_new_session=True, env=env)
+    env.pop(TOKEN_ENV, None)
+    if token:
+        env[TOKEN_ENV] = token
+    cmd = _server_command(case, record)
+    if host is not None or port is not None:
+        cmd += ["--tcp", str(port or 0), "--host", host or "127.0.0.1"]
+    proc = subprocess.Popen(cmd, cwd=case, stdout=log, stderr=subprocess.STDOUT,
+                            start_new_session=True, env=env)
     proc._whale_log = log  # type: ignore[attr-defined]
     t0 = time.perf_counter()
-    while not sock.exists():
+    while not _endpoint_of(endpoint, proc.pid):
         if proc.poll() is not None:
             log.close()
             raise SolverRunError(f"the step-server stopped at start (exit code {proc.returncode});"
                                  f" see {case / 'log.server'}")
         if time.perf_counter() - t0 > timeout:
             _stop_server(proc)
-            raise SolverRunError(f"the step-server made no socket {sock} within {timeout:.0f} s;"
-                                 f" see {case / 'log.server'}")
+            raise SolverRunError(f"the step-server published no endpoint {endpoint} within "
+                                 f"{timeout:.0f} s; see {case / 'log.server'}")
         time.sleep(0.1)
     return proc
+
+
+def _endpoint_of(path: Path, pid: int) -> bool:
+    """Whether the endpoint file at path is the one server ``pid`` wrote."""
+    try:
+        return f"\npid {pid}\n" in path.read_text()
+    except OSError:
+        return False
 
 
 def _stop_server(proc: subprocess.Popen | None, grace: float = 15.0) -> None:
@@ -820,7 +838,8 @@ def _stop_server(proc: subprocess.Popen | None, grace: float = 15.0) -> None:
 
 
 def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
-             stop_when=None) -> dict:
+             stop_when=None, host: str | None = None, port: int | None = None,
+             token: str | None = None) -> dict:
     """Run pimpleFoam on a prepared case with the step-server, and summarise the run.
 
     Meshes the case first when it has no mesh. Serial for one rank, otherwise decomposePar,
@@ -830,6 +849,10 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     ``stop_when(case) -> str | None`` is asked every few
     seconds while the solver runs; a reason ends the run (written) as the mesh watch does, and
     is recorded as ``stopped_because`` (not an error).
+
+    ``host``/``port``: the server listens on TCP there (port 0: any free one) and publishes
+    it in ``<case>/.whale-adapter.endpoint``; else on the case's UNIX socket. ``token`` (None:
+    ``$WHALE_ADAPTER_TOKEN``) reaches the server and the solver through the environment only.
 
     Returns the summary also written to ``<case>/adapter-summary.json``. Raises
     :class:`~adapter.errors.SolverRunError` naming the log when pimpleFoam fails, or when the
@@ -868,6 +891,13 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     end_time = float(control["endTime"])
     if start_time >= end_time - 0.5 * float(control["deltaT"]):
         return _finished(case, record, ranks, from_ranks, t_start)
+    from .server import TOKEN_ENV
+
+    token = token or os.environ.get(TOKEN_ENV) or None
+    env = foam_env()
+    env.pop(TOKEN_ENV, None)
+    if token:
+        env[TOKEN_ENV] = token
     solver = ["pimpleFoam", "-debug-switch", "polyMesh=1",
               "-opt-switch", f"stopAtWriteNowSignal={int(_STOP_SIGNAL)}"]
     server = None
@@ -882,15 +912,17 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
                 shutil.rmtree(p)
             run_utility(case, ["decomposePar", "-force", "-latestTime"])
         if ranks > 1:
+            # the token reaches the ranks on other hosts through mpirun's -x, not a file
+            forward = ["-x", TOKEN_ENV] if token else []
             cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", str(ranks),
-                   *solver, "-parallel"]
+                   *forward, *solver, "-parallel"]
         else:
             cmd = solver
         if not static:
-            server = _start_server(case, record)
+            server = _start_server(case, record, host=host, port=port, token=token)
         t_flow = time.perf_counter()
         rc, stopped = _run_watched(case, cmd, watch, record, start_time, end_time, progress,
-                                   stop_when)
+                                   stop_when, env=env)
         flow_wall = time.perf_counter() - t_flow
     finally:
         _stop_server(server)
@@ -936,7 +968,8 @@ def _finished(case: Path, record: dict, ranks: int, from_ranks: bool, t_start: f
     return summary
 
 
-def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_when=None):
+def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_when=None,
+                 env=None):
     """Run the solver, follow its log; stop it (write now) when the mesh gets too distorted,
     or when ``stop_when(case)`` gives a reason."""
     limit = float(record.get("max_non_orthogonality", 80.0))
@@ -945,7 +978,7 @@ def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_
     asked = time.perf_counter()
     with open(case / "log.pimpleFoam", "w") as log:
         proc = subprocess.Popen(cmd, cwd=case, stdout=log, stderr=subprocess.STDOUT,
-                                env=foam_env(), start_new_session=True)
+                                env=env or foam_env(), start_new_session=True)
         try:
             while True:
                 rc = proc.poll()
@@ -1072,6 +1105,15 @@ def register(subparsers) -> None:
     p.add_argument("--mesh-only", action="store_true", help="prepare and mesh, do not run")
     p.add_argument("--static-whale", action="store_true",
                    help="flow only: the whale does not move, no step-server or plugin needed")
+    p.add_argument("--host", default=None,
+                   help="the step-server listens on TCP at this host name or address (e.g. "
+                        "0.0.0.0 for every interface; published in the case's endpoint file) "
+                        "instead of the case's UNIX socket; a non-loopback host needs a token")
+    p.add_argument("--port", type=int, default=None,
+                   help="TCP port of the step-server (default 0: any free one)")
+    p.add_argument("--token-file", default=None, metavar="FILE",
+                   help="the shared secret, in a file only its owner may read (chmod 600); "
+                        "default $WHALE_ADAPTER_TOKEN. Never written into the case")
     p.set_defaults(func=_cmd_run_case)
 
 
@@ -1116,7 +1158,10 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
         print(format_summary(summary, COST_ROWS))
         print(f"(all figures: {case / SUMMARY}; picture: {case / 'forces.png'})")
         return 0
-    summary = run_case(case, ranks=args.ranks)
+    from .server import resolve_token
+
+    token = resolve_token(args.token_file)
+    summary = run_case(case, ranks=args.ranks, host=args.host, port=args.port, token=token)
     print(format_summary(summary))
     print(f"(all figures: {case / SUMMARY})")
     return 0

@@ -1,4 +1,4 @@
-"""The step-server wire format (docs/protocol.md, version 1).
+"""The step-server wire format (docs/protocol.md, version 2).
 
 A frame is a 16-byte header -- magic ``WHAL``, version (u16), message type (u16), payload length
 (u32), sequence number (u32), all little-endian -- then the payload. Reals are float64
@@ -22,7 +22,8 @@ import numpy as np
 from .errors import ProtocolError
 
 MAGIC = b"WHAL"
-VERSION = 1
+#: 2: one link per case (the master rank sends every rank's points; no rank field in HELLO)
+VERSION = 2
 #: largest payload accepted (bytes)
 MAX_PAYLOAD = 64 * 1024 * 1024
 HEADER = struct.Struct("<4sHHII")
@@ -79,9 +80,9 @@ class Frame:
 
 @dataclass(frozen=True)
 class Hello:
-    """A client's HELLO: its rank, the rank count, the token and its patch points (P, 3) in m."""
+    """A client's HELLO: the solver's rank count (information), the token and the whole patch's
+    points (P, 3) in m, every rank's in rank order."""
 
-    rank: int
     n_ranks: int
     token: str
     points: np.ndarray
@@ -89,7 +90,7 @@ class Hello:
 
 @dataclass(frozen=True)
 class Request:
-    """A REQUEST: the time (s) and this rank's pressure and viscous forces (3,) in N."""
+    """A REQUEST: the time (s) and the whole patch's pressure and viscous forces (3,) in N."""
 
     time: float
     pressure_force: np.ndarray
@@ -203,32 +204,32 @@ def _expect_size(payload: bytes, size: int, name: str) -> None:
                         f"bad {name}: payload has {len(payload)} bytes, expected {size}")
 
 
-def pack_hello(rank: int, n_ranks: int, points, token: str = "") -> bytes:
-    """HELLO payload; ``points`` (P, 3) in m."""
+def pack_hello(n_ranks: int, points, token: str = "") -> bytes:
+    """HELLO payload: the solver's rank count, the token, ``points`` (P, 3) in m."""
     pts = np.ascontiguousarray(points, dtype=_F64).reshape(-1, 3)
     tok = token.encode("utf-8")
-    return struct.pack("<IIII", rank, n_ranks, len(pts), len(tok)) + tok + pts.tobytes()
+    return struct.pack("<III", n_ranks, len(pts), len(tok)) + tok + pts.tobytes()
 
 
 def unpack_hello(payload: bytes) -> Hello:
     """Decode a HELLO payload; a point count that disagrees with the payload is ERROR 3."""
-    if len(payload) < 16:
+    if len(payload) < 12:
         raise WireError(ErrorCode.BAD_HELLO,
-                        f"bad HELLO: payload has {len(payload)} bytes, expected at least 16")
-    rank, n_ranks, n_points, n_token = struct.unpack_from("<IIII", payload)
-    expected = 16 + n_token + 24 * n_points
+                        f"bad HELLO: payload has {len(payload)} bytes, expected at least 12")
+    n_ranks, n_points, n_token = struct.unpack_from("<III", payload)
+    expected = 12 + n_token + 24 * n_points
     if len(payload) != expected:
         raise WireError(ErrorCode.BAD_HELLO,
                         f"bad HELLO: {n_points} points and a {n_token}-byte token need "
                         f"{expected} payload bytes, got {len(payload)}")
-    if n_ranks == 0 or rank >= n_ranks:
-        raise WireError(ErrorCode.BAD_HELLO, f"bad HELLO: rank {rank} of {n_ranks} ranks")
+    if n_ranks == 0:
+        raise WireError(ErrorCode.BAD_HELLO, "bad HELLO: 0 ranks")
     try:
-        token = payload[16:16 + n_token].decode("utf-8")
+        token = payload[12:12 + n_token].decode("utf-8")
     except UnicodeDecodeError:
         raise WireError(ErrorCode.BAD_HELLO, "bad HELLO: token is not UTF-8") from None
-    points = _f64_array(payload, 16 + n_token, 3 * n_points).reshape(n_points, 3)
-    return Hello(rank, n_ranks, token, points)
+    points = _f64_array(payload, 12 + n_token, 3 * n_points).reshape(n_points, 3)
+    return Hello(n_ranks, token, points)
 
 
 _WELCOME = struct.Struct("<Idd")
@@ -248,7 +249,7 @@ _REQUEST = struct.Struct("<7d")
 
 
 def pack_request(time: float, pressure_force=(np.nan,) * 3, viscous_force=(np.nan,) * 3) -> bytes:
-    """REQUEST payload: time (s), pressure force (3,) and viscous force (3,) in N."""
+    """REQUEST payload: time (s), the whole patch's pressure and viscous force (3,) in N."""
     return _REQUEST.pack(time, *map(float, pressure_force), *map(float, viscous_force))
 
 

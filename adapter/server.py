@@ -1,9 +1,11 @@
 """The step-server: serves the whale's displacement to OpenFOAM, one flow time step at a time.
 
 ``whale-adapter serve --case DIR`` listens on ``DIR/.whale-adapter.sock`` (and optionally on TCP)
-and speaks the protocol of docs/protocol.md with one client per MPI rank. Each rank's patch
-points are mapped onto the whale surface once (:class:`~adapter.mapping.PatchMap`); the
-animator is advanced once per flow time for all ranks, and, while OpenFOAM solves the flow,
+and speaks the protocol of docs/protocol.md with ONE client per case, however many MPI ranks
+OpenFOAM runs: the master rank gathers every rank's patch points and sends them in one HELLO,
+and scatters the displacements itself. The patch points are mapped onto the whale surface once
+(:class:`~adapter.mapping.PatchMap`); the animator is advanced once per flow time, and, while
+OpenFOAM solves the flow,
 already towards the next expected time (work-ahead, undone from a checkpoint when the guess
 was wrong). Writes under ``DIR/adapter/``: ``whale_<t>.vtp`` + ``whale.pvd`` and
 ``state_<t>.npz`` at every WRITE, a row of ``keypoints.csv`` per served time, ``server.log``
@@ -43,6 +45,10 @@ log = logging.getLogger("adapter.server")
 
 SOCKET_NAME = ".whale-adapter.sock"
 PID_NAME = ".whale-adapter.pid"
+#: where the server says it listens (read by the boundary condition's master rank)
+ENDPOINT_NAME = ".whale-adapter.endpoint"
+#: the environment variable holding the shared secret (never written into the case)
+TOKEN_ENV = "WHALE_ADAPTER_TOKEN"
 OUTPUT_DIR = "adapter"
 LANDMARKS = ("rostrum", "flipper_left", "flipper_right", "tail_base", "fluke_tip_left",
              "fluke_tip_right")
@@ -89,7 +95,7 @@ class _Ahead:
 @dataclasses.dataclass
 class _Row:
     landmarks: np.ndarray            # (3 * n_landmarks,)
-    forces: dict                     # rank -> (6,)
+    forces: np.ndarray | None        # (6,) the whole patch's, as the link reported them
 
 
 class _Connection:
@@ -97,7 +103,8 @@ class _Connection:
         self.sock = sock
         self.peer = peer
         self.send_lock = threading.Lock()
-        self.rank: int | None = None
+        #: after HELLO: the rank count the link speaks for (information)
+        self.n_ranks: int | None = None
         self.patch: PatchMap | None = None
         self.first_request = True
         self.last_t: float | None = None
@@ -147,15 +154,18 @@ class StepServer:
     map_tolerance : largest patch-to-surface distance, fraction of L (HELLO fails beyond).
     first_client_timeout : seconds to wait for the first client before giving up (exit 1).
     animator : an already built Animator for this scene (tests); None builds one.
+    keep_serving : serve link after link until :meth:`stop` (tests, a server shared by
+        successive runs); False ends the run with the case's link.
 
-    Use :meth:`serve` (start, then run until the clients are done) or :meth:`start` then
+    One link per case: while a client that said HELLO is connected, another HELLO gets ERROR 7
+    (busy). Use :meth:`serve` (start, then run until the link is done) or :meth:`start` then
     :meth:`run`; both return the exit code: 0 after BYE or a vanished client, 1 on a model
     failure or when no client came.
     """
 
     def __init__(self, case_dir, scene, *, tcp_port: int | None = None, host: str = "127.0.0.1",
                  token: str | None = None, map_tolerance: float = DEFAULT_TOLERANCE,
-                 first_client_timeout: float = 600.0, animator=None):
+                 first_client_timeout: float = 600.0, animator=None, keep_serving: bool = False):
         self.case_dir = Path(case_dir)
         self.scene = scene
         self.tcp_port = tcp_port
@@ -164,8 +174,10 @@ class StepServer:
         self.map_tolerance = map_tolerance
         self.first_client_timeout = first_client_timeout
         self.animator = animator
+        self.keep_serving = keep_serving
         self.socket_path = self.case_dir / SOCKET_NAME
         self.pid_path = self.case_dir / PID_NAME
+        self.endpoint_path = self.case_dir / ENDPOINT_NAME
         self.out_dir = self.case_dir / OUTPUT_DIR
         self.exit_code: int | None = None
         self.summary = ""
@@ -177,7 +189,7 @@ class StepServer:
         self._write_lock = threading.Lock()      # WRITE outputs
         self._conns: set[_Connection] = set()
         self._threads: list[threading.Thread] = []
-        self._ranks_seen: set[int] = set()
+        self._links = 0                           # connections that said HELLO
         self._n_ranks: int | None = None
         self._served: OrderedDict[float, _Served] = OrderedDict()
         self._last: _Served | None = None
@@ -202,7 +214,7 @@ class StepServer:
         self._steps = 0
         self._ahead_hits = 0
         self._ahead_tries = 0
-        self._patch_points: dict[int, int] = {}
+        self._patch_points = 0
         self._max_distance = 0.0
 
     # --- start and stop -----------------------------------------------------------------------
@@ -223,7 +235,7 @@ class StepServer:
         log.setLevel(logging.INFO)
         try:
             self._listen()
-            self.pid_path.write_text(f"{os.getpid()}\n")
+            _atomic_write_text(self.pid_path, f"{os.getpid()} {socket.gethostname()}\n")
             if self.animator is None:
                 from .animator import Animator  # the animator is heavy; import on demand
                 self.animator = Animator(self.scene)
@@ -239,6 +251,7 @@ class StepServer:
                                             dtype=np.int64)
             self._fingerprint = self._make_fingerprint()
             self._load_pvd()
+            self._write_endpoint()
         except BaseException:
             self._cleanup()
             raise
@@ -248,9 +261,46 @@ class StepServer:
                  os.getpid(), len(self._surface.points), self.animator.dt)
         print(f"whale-adapter serve: listening on {where} (pid {os.getpid()})", flush=True)
 
+    def _write_endpoint(self) -> None:
+        """``<case>/.whale-adapter.endpoint``, atomically (temp file + rename): where a client
+        connects. TCP when the server listens on TCP (a wildcard address is published as this
+        host's name), else the UNIX socket. Never the token."""
+        lines = ["# whale-adapter step-server endpoint (docs/step-server.md)"]
+        if self.tcp_address is not None:
+            host = self.host
+            if host in ("", "0.0.0.0", "::"):
+                host = socket.gethostname()
+            lines += [f"host {host}", f"port {self.tcp_address[1]}"]
+        else:
+            lines += [f"unix {self.socket_path}"]
+        lines += [f"server_host {socket.gethostname()}", f"pid {os.getpid()}"]
+        _atomic_write_text(self.endpoint_path, "\n".join(lines) + "\n")
+
+    def _read_pid(self) -> tuple[str, str | None] | None:
+        """(pid, host) from the pid file; host None in an old one-field file; None if absent."""
+        try:
+            fields = self.pid_path.read_text().split()
+        except OSError:
+            return None
+        if not fields:
+            return None
+        return fields[0], (fields[1] if len(fields) > 1 else None)
+
     def _check_not_running(self) -> None:
+        """One server per case, across hosts: another host's server is never judged stale here
+        (its socket cannot be probed from this host, its pid means nothing here)."""
+        owner = self._read_pid()
+        here = socket.gethostname()
+        if owner is not None and owner[1] is not None and owner[1] != here:
+            pid, host = owner
+            raise ServerStartError(
+                f"a step-server on host {host} (pid {pid}) holds {self.case_dir} (see "
+                f"{self.pid_path}); only {host} can tell whether it still runs: stop it there, "
+                f"or, if it is gone, remove {self.pid_path.name}, {self.socket_path.name} and "
+                f"{self.endpoint_path.name} from the case")
         path = self.socket_path
         if not (path.exists() or path.is_symlink()):
+            self.endpoint_path.unlink(missing_ok=True)
             return
         if not stat.S_ISSOCK(path.lstat().st_mode):
             raise ServerStartError(f"{path} exists and is not a socket; remove it")
@@ -261,15 +311,13 @@ class StepServer:
         except (ConnectionRefusedError, FileNotFoundError):
             log.info("removing stale socket %s", path)
             path.unlink(missing_ok=True)
+            self.endpoint_path.unlink(missing_ok=True)
             return
         except OSError as exc:
             raise ServerStartError(f"cannot probe the socket {path}: {exc}") from None
         finally:
             probe.close()
-        try:
-            pid = self.pid_path.read_text().strip()
-        except OSError:
-            pid = "unknown"
+        pid = owner[0] if owner is not None else "unknown"
         raise ServerStartError(
             f"another step-server (pid {pid}) is already serving {self.case_dir} on {path}; "
             f"wait for its run to end or stop it (kill {pid})")
@@ -285,11 +333,16 @@ class StepServer:
         unix.listen(64)
         self._listeners.append(unix)
         if self.tcp_port is not None:
-            family = socket.AF_INET6 if ":" in self.host else socket.AF_INET
+            try:    # a name or an address, IPv4 or IPv6
+                family, _, _, _, addr = socket.getaddrinfo(
+                    self.host or None, self.tcp_port, type=socket.SOCK_STREAM,
+                    flags=socket.AI_PASSIVE)[0]
+            except socket.gaierror as exc:
+                raise ServerStartError(f"cannot resolve --host {self.host}: {exc}") from None
             tcp = socket.socket(family, socket.SOCK_STREAM)
             tcp.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
             try:
-                tcp.bind((self.host, self.tcp_port))
+                tcp.bind(addr)
             except OSError as exc:
                 tcp.close()
                 raise ServerStartError(
@@ -324,15 +377,15 @@ class StepServer:
                         continue
                     self._accept(sock, addr)
                 with self._state_lock:
-                    active = sum(1 for c in self._conns if c.rank is not None)
-                    seen = len(self._ranks_seen)
+                    active = sum(1 for c in self._conns if c.n_ranks is not None)
+                    seen = self._links
                     fatal = self._fatal
                 if fatal is not None:
                     if active == 0 or time.monotonic() - self._fatal_at > _FATAL_GRACE_S:
                         code = 1
                         break
                     continue
-                if seen and active == 0 and (self._vanished or seen >= (self._n_ranks or 1)):
+                if seen and active == 0 and not self.keep_serving:
                     break
                 if not seen and time.monotonic() - started > self.first_client_timeout:
                     print(f"whale-adapter serve: no client connected within "
@@ -375,12 +428,13 @@ class StepServer:
         for s in self._listeners:
             s.close()
         self._listeners.clear()
-        try:
-            if self.socket_path.exists() and self.pid_path.read_text().strip() == str(os.getpid()):
-                self.socket_path.unlink()
-                self.pid_path.unlink()
-        except OSError:
-            pass
+        owner = self._read_pid()
+        if owner is not None and owner[0] == str(os.getpid()):
+            for path in (self.endpoint_path, self.socket_path, self.pid_path):
+                try:
+                    path.unlink(missing_ok=True)
+                except OSError:
+                    pass
         if self._keypoints_file is not None:
             self._keypoints_file.close()
             self._keypoints_file = None
@@ -397,6 +451,7 @@ class StepServer:
             "requests": n,
             "steps": self._steps,
             "ranks": self._n_ranks or 0,
+            "links": self._links,
             "mean_compute_s": mean_c,
             "mean_transfer_s": mean_t,
             "median_compute_s": float(np.median(self._req_compute)) if n else 0.0,
@@ -404,13 +459,14 @@ class StepServer:
             "mean_step_advance_s": float(np.mean(self._advance_s)) if self._advance_s else 0.0,
             "work_ahead_hits": self._ahead_hits,
             "work_ahead_tries": self._ahead_tries,
-            "patch_points": int(sum(self._patch_points.values())),
+            "patch_points": int(self._patch_points),
             "max_mapping_distance_m": self._max_distance,
             "model_failure": self._fatal,
         }
         self.stats = stats
         self.summary = (
-            f"{n} requests served ({self._steps} steps, {stats['ranks']} ranks), mean compute "
+            f"{n} requests served ({self._steps} steps, {stats['ranks']} ranks, "
+            f"{self._links} link{'s' if self._links != 1 else ''}), mean compute "
             f"{1e3 * mean_c:.3g} ms per request, transfer {1e3 * mean_t:.3g} ms, work-ahead hits "
             f"{self._ahead_hits}/{self._ahead_tries}")
         if self.out_dir.is_dir():
@@ -444,17 +500,17 @@ class StepServer:
                 if not self._handle(conn, frame, t_wait, t_recv):
                     break
         except wire.ConnectionClosed:
-            if conn.rank is not None and not conn.said_bye and not conn.error_sent:
+            if conn.n_ranks is not None and not conn.said_bye and not conn.error_sent:
                 self._client_vanished(conn, "closed the connection without BYE")
         except WireError as exc:
-            log.warning("client %s (rank %s): %s", conn.peer, conn.rank, exc)
-            self._drop(conn)            # before the ERROR: the rank may reconnect at once
+            log.warning("client %s: %s", conn.peer, exc)
+            self._drop(conn)            # before the ERROR: the client may reconnect at once
             conn.send_error(exc.code, str(exc), seq)
         except OSError as exc:
-            if conn.rank is not None and not conn.said_bye and not conn.error_sent:
+            if conn.n_ranks is not None and not conn.said_bye and not conn.error_sent:
                 self._client_vanished(conn, f"connection lost ({exc})")
         except Exception as exc:      # never let one client bring the server down
-            log.exception("client %s (rank %s): internal error", conn.peer, conn.rank)
+            log.exception("client %s: internal error", conn.peer)
             self._drop(conn)
             conn.send_error(ErrorCode.BAD_FRAME, f"internal server error: {exc}", seq)
         finally:
@@ -469,20 +525,20 @@ class StepServer:
             self._conns.discard(conn)
 
     def _client_vanished(self, conn: _Connection, why: str) -> None:
-        log.warning("rank %s %s", conn.rank, why)
+        log.warning("client %s %s", conn.peer, why)
         self._vanished = True
 
     def _handle(self, conn: _Connection, frame: wire.Frame, t_wait: float, t_recv: float) -> bool:
         """Answer one frame; False closes the connection."""
         kind = frame.type
-        if conn.rank is None and kind != MessageType.HELLO:
+        if conn.n_ranks is None and kind != MessageType.HELLO:
             raise WireError(ErrorCode.BAD_FRAME,
                             f"expected HELLO as the first message, got {kind.name}")
         if self._fatal is not None:
             conn.send_error(ErrorCode.MODEL_FAILURE, self._fatal, frame.seq)
             return False
         if kind == MessageType.HELLO:
-            if conn.rank is not None:
+            if conn.n_ranks is not None:
                 raise WireError(ErrorCode.BAD_FRAME, "HELLO sent twice on one connection")
             return self._hello(conn, frame)
         if kind == MessageType.REQUEST:
@@ -493,7 +549,7 @@ class StepServer:
             return True
         if kind == MessageType.BYE:
             conn.said_bye = True
-            log.info("rank %d said BYE", conn.rank)
+            log.info("client %s said BYE", conn.peer)
             return False
         raise WireError(ErrorCode.BAD_FRAME, f"a client may not send {kind.name}")
 
@@ -503,37 +559,37 @@ class StepServer:
                 hello.token.encode("utf-8"), self.token.encode("utf-8")):
             what = "no token" if not hello.token else "a wrong token"
             raise WireError(ErrorCode.BAD_TOKEN,
-                            f"rank {hello.rank} sent {what}; give the boundary condition the "
-                            f"token the server was started with")
+                            f"the client sent {what}; set WHALE_ADAPTER_TOKEN for OpenFOAM's "
+                            f"master rank to the token the server was started with")
         with self._state_lock:
-            if self._n_ranks is not None and hello.n_ranks != self._n_ranks:
-                raise WireError(ErrorCode.BAD_HELLO,
-                                f"bad HELLO: rank {hello.rank} says {hello.n_ranks} ranks, "
-                                f"earlier ranks said {self._n_ranks}")
-            if any(c.rank == hello.rank for c in self._conns):
-                raise WireError(ErrorCode.BUSY,
-                                f"server busy: rank {hello.rank} of {self._n_ranks} is already "
-                                f"connected (is another run using {self.case_dir}?)")
+            self._check_free(conn)
         try:
             patch = PatchMap(hello.points, self._surface.points, self._surface.triangles,
                              self._surface.length, self.map_tolerance)
         except GeometryError as exc:
-            raise WireError(ErrorCode.BAD_HELLO,
-                            f"bad HELLO from rank {hello.rank}: {exc}") from None
+            raise WireError(ErrorCode.BAD_HELLO, f"bad HELLO: {exc}") from None
         with self._state_lock:
-            if any(c.rank == hello.rank for c in self._conns):
-                raise WireError(ErrorCode.BUSY, f"server busy: rank {hello.rank} already connected")
+            self._check_free(conn)
             self._n_ranks = hello.n_ranks
-            conn.rank = hello.rank
-            conn.patch = patch
-            self._ranks_seen.add(hello.rank)
-            self._patch_points[hello.rank] = patch.n_points
+            conn.n_ranks = hello.n_ranks
+            self._links += 1
+            self._patch_points = patch.n_points
             self._max_distance = max(self._max_distance, patch.max_distance)
-        log.info("rank %d/%d (%s): %d patch points, max mapping distance %.3g m", hello.rank,
-                 hello.n_ranks, conn.peer, patch.n_points, patch.max_distance)
+            conn.patch = patch
+        log.info("link %s for %d rank(s): %d patch points, max mapping distance %.3g m",
+                 conn.peer, hello.n_ranks, patch.n_points, patch.max_distance)
         welcome = wire.pack_welcome(patch.n_points, patch.max_distance, self.animator.dt)
         conn.send(MessageType.WELCOME, welcome, frame.seq)
         return True
+
+    def _check_free(self, conn: _Connection) -> None:
+        """One link per case: ERROR 7 while another client that said HELLO is connected."""
+        other = next((c for c in self._conns if c is not conn and c.n_ranks is not None), None)
+        if other is not None:
+            raise WireError(ErrorCode.BUSY,
+                            f"server busy: {self.case_dir} is already served to a client "
+                            f"({other.peer}, {other.n_ranks} rank(s)); one link per case: is "
+                            f"another run using this case?")
 
     def _check_time(self, t: float, what: str) -> None:
         """A time the animator can reach: finite, not negative, and not absurdly far ahead
@@ -577,13 +633,13 @@ class StepServer:
         forces = np.concatenate([req.pressure_force, req.viscous_force])
         conn.first_request = False
         conn.last_t = t if conn.last_t is None else max(conn.last_t, t)
-        self._add_forces(t, conn.rank, forces)
+        self._add_forces(t, forces)
         t_ready = time.perf_counter()
         send_s = conn.send(MessageType.DISPLACEMENT, payload, frame.seq)
         with self._state_lock:
             self._req_compute.append(t_ready - t_start)
             self._req_transfer.append((t_start - t_recv) + send_s)
-        log.debug("rank %d t=%s compute %.3g ms send %.3g ms", conn.rank, time_name(t),
+        log.debug("%s t=%s compute %.3g ms send %.3g ms", conn.peer, time_name(t),
                   1e3 * (t_ready - t_start), 1e3 * send_s)
         return True
 
@@ -594,7 +650,7 @@ class StepServer:
                 self._fatal_at = time.monotonic()
                 log.error("model failure: %s", message)
                 print(f"whale-adapter serve: model failure: {message}", flush=True)
-            others = [c for c in self._conns if c is not conn and c.rank is not None]
+            others = [c for c in self._conns if c is not conn and c.n_ranks is not None]
         conn.send_error(ErrorCode.MODEL_FAILURE, self._fatal, seq)
         for c in others:
             c.send_error(ErrorCode.MODEL_FAILURE, self._fatal)
@@ -602,14 +658,14 @@ class StepServer:
     # --- the motion ---------------------------------------------------------------------------
 
     def _motion(self, conn: _Connection, t: float) -> _Served:
-        """The motion at t, computed once for all ranks."""
+        """The motion at t, computed once (a repeat gets the cached state)."""
         with self._state_lock:
             served = self._served.get(t)
         if served is not None:
             return served
         if conn.last_t is not None and t < conn.last_t:
             raise WireError(ErrorCode.TIME_BACKWARDS,
-                            f"time went backwards: rank {conn.rank} asked for t = {t!r} s after "
+                            f"time went backwards: the client asked for t = {t!r} s after "
                             f"t = {conn.last_t!r} s")
         with self._anim_lock:
             if self._fatal is not None:
@@ -673,7 +729,7 @@ class StepServer:
             self._restart_outputs(t)
         self._flush_rows(t)
         self._rows[t] = _Row((self._surface.points[self._landmark_nodes]
-                              + disp[self._landmark_nodes]).ravel(), {})
+                              + disp[self._landmark_nodes]).ravel(), None)
         prev = last.t if last is not None and not restart else None
         self._last = served
         note = {None: "no work-ahead", True: "work-ahead hit", False: "work-ahead miss"}[hit]
@@ -763,15 +819,13 @@ class StepServer:
 
     # --- outputs ------------------------------------------------------------------------------
 
-    def _add_forces(self, t: float, rank: int, forces: np.ndarray) -> None:
+    def _add_forces(self, t: float, forces: np.ndarray) -> None:
         with self._state_lock:
             row = self._rows.get(t)
             if row is None:
                 return
-            row.forces[rank] = forces
-            complete = len(row.forces) >= (self._n_ranks or 1)
-        if complete:
-            self._flush_rows(t, inclusive=True)
+            row.forces = forces
+        self._flush_rows(t, inclusive=True)
 
     def _flush_rows(self, t: float, inclusive: bool = False) -> None:
         """Write the keypoint rows of times before t (or up to t), in time order."""
@@ -783,14 +837,12 @@ class StepServer:
             f = self._keypoints()
             for k, row in rows:
                 fields = [repr(float(v)) for v in (k, *row.landmarks)]
-                forces = None
-                if len(row.forces) >= (self._n_ranks or 1):
-                    forces = np.sum(list(row.forces.values()), axis=0)
+                forces = row.forces
                 if forces is not None and np.all(np.isfinite(forces)):
                     fields += [repr(float(v)) for v in forces]
                 else:
                     # unknown (the first REQUEST after a restart carries no forces yet, or a
-                    # rank did not report): empty fields, never NaN
+                    # link did not report): empty fields, never NaN
                     fields += [""] * len(FORCE_COLUMNS)
                 f.write(",".join(fields) + "\n")
             f.flush()
@@ -917,6 +969,31 @@ class StepServer:
                            ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n")
 
 
+def read_token_file(path) -> str:
+    """The token in ``path`` (one line): a regular file that only its owner may read."""
+    path = Path(path)
+    try:
+        st = path.stat()
+    except OSError as exc:
+        raise ServerStartError(f"cannot read the token file {path}: {exc.strerror}") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise ServerStartError(f"the token file {path} is not a regular file")
+    if st.st_mode & 0o077:
+        raise ServerStartError(f"the token file {path} has mode {stat.S_IMODE(st.st_mode):04o}: "
+                               f"others may read it; chmod 600 {path}")
+    token = path.read_text().strip()
+    if not token:
+        raise ServerStartError(f"the token file {path} is empty")
+    return token
+
+
+def resolve_token(token_file=None, token: str | None = None) -> str | None:
+    """The token: from a 0600 file, else as given, else ``$WHALE_ADAPTER_TOKEN``, else None."""
+    if token_file is not None:
+        return read_token_file(token_file)
+    return token or os.environ.get(TOKEN_ENV) or None
+
+
 def _atomic_write_text(path: Path, text: str) -> None:
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(text)
@@ -967,8 +1044,13 @@ def register(subparsers) -> None:
     p.add_argument("--preset", choices=PRESETS, help="built-in preset")
     p.add_argument("--tcp", type=int, metavar="PORT", help="also listen on TCP at this port")
     p.add_argument("--host", default="127.0.0.1", help="TCP host (default 127.0.0.1)")
-    p.add_argument("--token", default=os.environ.get("WHALE_ADAPTER_TOKEN"),
-                   help="shared secret clients must send (default: $WHALE_ADAPTER_TOKEN)")
+    p.add_argument("--token", default=None,
+                   help="shared secret clients must send (visible in ps: prefer "
+                        "$WHALE_ADAPTER_TOKEN or --token-file)")
+    p.add_argument("--token-file", type=Path, metavar="FILE",
+                   help="read the token from FILE (mode 0600, owner only)")
+    p.add_argument("--keep-serving", action="store_true",
+                   help="serve run after run (one link at a time) until killed")
     p.add_argument("--map-tolerance", type=float, default=DEFAULT_TOLERANCE, metavar="FRACTION",
                    help="largest patch-to-whale distance, fraction of L (default %(default)s)")
     p.add_argument("--wait", type=float, default=600.0, metavar="S",
@@ -980,6 +1062,8 @@ def _cmd_serve(args: argparse.Namespace) -> int:
     from .scene import load_scene
 
     scene = load_scene(args.scene, args.preset)
-    server = StepServer(args.case, scene, tcp_port=args.tcp, host=args.host, token=args.token,
-                        map_tolerance=args.map_tolerance, first_client_timeout=args.wait)
+    token = resolve_token(args.token_file, args.token)
+    server = StepServer(args.case, scene, tcp_port=args.tcp, host=args.host, token=token,
+                        map_tolerance=args.map_tolerance, first_client_timeout=args.wait,
+                        keep_serving=args.keep_serving)
     return server.serve()

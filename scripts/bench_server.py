@@ -58,7 +58,7 @@ def bench(animator, scene, n_points, steps, flow_dt, solve_s):
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         sock.connect(str(srv.socket_path))
         t0 = time.perf_counter()
-        call(sock, 1, MessageType.HELLO, wire.pack_hello(0, 1, sample_points(animator.surface,
+        call(sock, 1, MessageType.HELLO, wire.pack_hello(1, sample_points(animator.surface,
                                                                              n_points)))
         hello_s = time.perf_counter() - t0
         rtt = []

@@ -82,7 +82,7 @@ def soak(case: Path, steps: int = 1000, write_every: int = 50, interval: float =
     while runner.is_alive():
         if proc is None and pid_file.exists():
             try:
-                proc = psutil.Process(int(pid_file.read_text()))
+                proc = psutil.Process(int(pid_file.read_text().split()[0]))   # "pid host"
             except (ValueError, psutil.NoSuchProcess):
                 proc = None
         if proc is not None:

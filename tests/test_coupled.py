@@ -132,3 +132,22 @@ def test_coupled_smoke_run_and_restart(tmp_path, meshed, smoke, surface, ranks):
     assert C.time_dirs(again)[-1][0] == t_last
     np.testing.assert_array_equal(_whale_displacement(again, again / last.name), got)
     assert t_prev < t_last
+
+
+def test_run_case_over_tcp_with_a_token_from_the_environment(tmp_path, meshed, smoke, surface,
+                                                             monkeypatch):
+    """run-case --host/--port: the server listens on TCP, publishes the endpoint, the 2 ranks'
+    master connects there with the token from the environment (mpirun -x); the token is in no
+    file of the case."""
+    token = "tcp-token-0f3c9a"
+    monkeypatch.setenv("WHALE_ADAPTER_TOKEN", token)
+    case = tmp_path / "case"
+    shutil.copytree(meshed, case)
+    C.run_case(case, ranks=2, progress=False, host="127.0.0.1", port=0)
+    log = (case / "log.pimpleFoam").read_text()
+    assert "stepServer: connected to tcp://127.0.0.1:" in log
+    t_last, last = C.time_dirs(case)[-1]
+    np.testing.assert_allclose(_whale_displacement(case, last),
+                               _expected(case, smoke, surface, t_last), rtol=0, atol=1e-9)
+    holding = [p for p in case.rglob("*") if p.is_file() and token.encode() in p.read_bytes()]
+    assert holding == []

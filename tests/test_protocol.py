@@ -15,7 +15,7 @@ from adapter.protocol import ErrorCode, MessageType, WireError
 def test_header_layout_matches_the_spec():
     frame = wire.encode_frame(MessageType.REQUEST, b"x" * 56, seq=7)
     assert frame[:4] == b"WHAL"
-    assert struct.unpack("<HHII", frame[4:16]) == (1, 3, 56, 7)
+    assert struct.unpack("<HHII", frame[4:16]) == (2, 3, 56, 7)
     assert len(frame) == 16 + 56
     decoded = wire.decode_frame(frame)
     assert (decoded.type, decoded.seq, decoded.payload) == (MessageType.REQUEST, 7, b"x" * 56)
@@ -23,8 +23,12 @@ def test_header_layout_matches_the_spec():
 
 def test_message_round_trips():
     pts = np.arange(12.0).reshape(4, 3) / 7
-    hello = wire.unpack_hello(wire.pack_hello(1, 4, pts, token="sécret"))
-    assert (hello.rank, hello.n_ranks, hello.token) == (1, 4, "sécret")
+    payload = wire.pack_hello(4, pts, token="sécret")
+    # version 2: u32 nRanks, u32 nPoints, u32 token length, token, points (no rank field)
+    assert struct.unpack_from("<III", payload) == (4, 4, len("sécret".encode()))
+    assert len(payload) == 12 + len("sécret".encode()) + 24 * 4
+    hello = wire.unpack_hello(payload)
+    assert (hello.n_ranks, hello.token) == (4, "sécret")
     assert np.array_equal(hello.points, pts)
     assert wire.unpack_welcome(wire.pack_welcome(4, 0.25, 1e-3)) == (4, 0.25, 1e-3)
     req = wire.unpack_request(wire.pack_request(0.1, (1, 2, 3), (4, 5, 6)))
@@ -67,11 +71,11 @@ def test_read_frame_assembles_partial_reads():
     "data, code, words",
     [
         (b"JUNK" + bytes(12), ErrorCode.BAD_FRAME, "magic"),
-        (struct.pack("<4sHHII", b"WHAL", 1, 3, wire.MAX_PAYLOAD + 1, 1), ErrorCode.BAD_FRAME,
+        (struct.pack("<4sHHII", b"WHAL", 2, 3, wire.MAX_PAYLOAD + 1, 1), ErrorCode.BAD_FRAME,
          "exceeds the limit"),
-        (struct.pack("<4sHHII", b"WHAL", 1, 42, 0, 1), ErrorCode.BAD_FRAME, "unknown message"),
-        (struct.pack("<4sHHII", b"WHAL", 2, 1, 0, 1), ErrorCode.VERSION_MISMATCH, "version 2"),
-        (struct.pack("<4sHHII", b"WHAL", 1, 3, 56, 1) + bytes(10), ErrorCode.BAD_FRAME,
+        (struct.pack("<4sHHII", b"WHAL", 2, 42, 0, 1), ErrorCode.BAD_FRAME, "unknown message"),
+        (struct.pack("<4sHHII", b"WHAL", 1, 1, 0, 1), ErrorCode.VERSION_MISMATCH, "version 1"),
+        (struct.pack("<4sHHII", b"WHAL", 2, 3, 56, 1) + bytes(10), ErrorCode.BAD_FRAME,
          "truncated"),
         (b"WHA", ErrorCode.BAD_FRAME, "truncated"),
     ],
@@ -89,7 +93,7 @@ def test_read_frame_rejects(data, code, words):
 
 
 def test_version_mismatch_names_both_versions():
-    with pytest.raises(WireError, match="version 7.*version 1"):
+    with pytest.raises(WireError, match="version 7.*version 2"):
         wire.decode_header(struct.pack("<4sHHII", b"WHAL", 7, 1, 0, 1))
 
 
@@ -104,10 +108,10 @@ def test_truncated_frame_times_out():
 
 def test_bad_payloads():
     with pytest.raises(WireError) as info:
-        wire.unpack_hello(wire.pack_hello(0, 1, np.zeros((3, 3)))[:-8])
+        wire.unpack_hello(wire.pack_hello(1, np.zeros((3, 3)))[:-8])
     assert info.value.code == ErrorCode.BAD_HELLO and "3 points" in str(info.value)
-    with pytest.raises(WireError, match="rank 2 of 2"):
-        wire.unpack_hello(wire.pack_hello(2, 2, np.zeros((1, 3))))
+    with pytest.raises(WireError, match="0 ranks"):
+        wire.unpack_hello(wire.pack_hello(0, np.zeros((1, 3))))
     with pytest.raises(WireError, match="REQUEST"):
         wire.unpack_request(b"\0" * 55)
     with pytest.raises(WireError, match="DISPLACEMENT"):

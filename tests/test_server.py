@@ -103,25 +103,28 @@ def test_serves_mapped_animator_displacement(case, serve, animator, points, refe
     assert not (case / ".whale-adapter.sock").exists()
 
 
-def test_two_ranks_share_points_and_steps(case, serve, animator, points):
+def test_one_link_per_case_whatever_the_rank_count(case, serve, animator, points):
+    """The master rank of a 2-rank run sends both ranks' points (100 shared ones twice) in one
+    HELLO; a second client is refused as busy; the run ends with the link's BYE."""
     srv = serve(case)
-    a, b = Client(case), Client(case)
     pa, pb = points[:300], points[200:]                          # 100 points on both ranks
-    a.hello(pa, rank=0, n_ranks=2)
-    b.hello(pb, rank=1, n_ranks=2)
+    a = Client(case)
+    assert a.hello(np.concatenate([pa, pb]), n_ranks=2)[0] == 700
+    other = Client(case)
+    with pytest.raises(ServerSaid) as info:
+        other.hello(pb, n_ranks=2)
+    assert info.value.code == ErrorCode.BUSY and "one link per case" in info.value.message
     for t in TIMES[:3]:
-        _, da = a.request(t, (1, 1, 1), (0, 0, 1))
-        _, db = b.request(t, (2, 2, 2), (0, 0, 1))
-        assert np.array_equal(da[200:], db[:100])
-    for cl in (a, b):
-        cl.write(TIMES[2])                                        # written once
+        _, d = a.request(t, (3, 3, 3), (0, 0, 2))
+        assert np.array_equal(d[200:300], d[300:400])           # shared points: the same bits
+    a.write(TIMES[2])
     a.bye()
-    b.bye()
-    assert finished(srv) == 0
+    assert finished(srv) == 0                                    # no wait for a second rank
     rows = (case / "adapter" / "keypoints.csv").read_text().splitlines()[1:]
     assert len(rows) == 3
     assert np.array(rows[0].split(","), dtype=float)[-6:].tolist() == [3, 3, 3, 0, 0, 2]
-    assert srv.stats["steps"] == 3 and srv.stats["requests"] == 6
+    assert srv.stats["steps"] == 3 and srv.stats["requests"] == 3
+    assert srv.stats["links"] == 1 and srv.stats["ranks"] == 2
 
 
 def test_unknown_forces_leave_the_csv_fields_empty_never_nan(case, serve, points):
@@ -197,37 +200,36 @@ def test_restart_is_bit_identical(case, serve, points, source):
 
 
 def test_rewind_within_one_server_on_a_fresh_connection(case, serve, points):
-    srv = serve(case)
-    a, keeper = Client(case), Client(case)
-    a.hello(points[:300], rank=0, n_ranks=2)
-    keeper.hello(points[300:], rank=1, n_ranks=2)
+    srv = serve(case, keep_serving=True)
+    a = Client(case)
+    a.hello(points[:300], n_ranks=2)
     original = {}
     for t in TIMES:
         original[t] = a.request(t)[0]
-        keeper.request(t)
     with pytest.raises(ServerSaid) as info:
         a.request(TIMES[1])                                    # not a repeat: backwards
     assert info.value.code == ErrorCode.TIME_BACKWARDS
-    b = Client(case)                                           # rank 0, restarted
-    b.hello(points[:300], rank=0, n_ranks=2)
+    b = Client(case)                                           # the run, restarted
+    b.hello(points[:300], n_ranks=2)
     assert [b.request(t)[0] for t in TIMES[1:]] == [original[t] for t in TIMES[1:]]
     b.bye()
-    keeper.bye()
+    srv.stop()
     assert finished(srv) == 0
+    assert srv.stats["links"] == 2
 
 
 def test_bad_clients_do_not_kill_the_server(case, serve, points):
     srv = serve(case)
     far = Client(case)
     with pytest.raises(ServerSaid) as info:
-        far.hello(points + [0.0, 0.0, 100.0], rank=0)
+        far.hello(points + [0.0, 0.0, 100.0])
     assert info.value.code == ErrorCode.BAD_HELLO and " m from the whale" in info.value.message
     good = Client(case)
     good.hello(points[:50])
     good.request(TIMES[0])
     sent = [
         b"GARBAGE GARBAGE GARBAGE",
-        struct.pack("<4sHHII", b"WHAL", 1, 3, 2**31, 1),        # oversized
+        struct.pack("<4sHHII", b"WHAL", 2, 3, 2**31, 1),        # oversized
         wire.encode_frame(MessageType.REQUEST, wire.pack_request(0.1), 1)[:30],   # truncated
         wire.encode_frame(MessageType.REQUEST, wire.pack_request(0.1), 1),        # no HELLO
     ]
@@ -239,16 +241,16 @@ def test_bad_clients_do_not_kill_the_server(case, serve, points):
             bad.reply()
         assert info.value.code == ErrorCode.BAD_FRAME
         bad.sock.close()
-    v2 = Client(case)
-    v2.sock.sendall(wire.encode_frame(MessageType.HELLO, wire.pack_hello(0, 1, points), 1,
-                                      version=2))
+    v1 = Client(case)
+    v1.sock.sendall(wire.encode_frame(MessageType.HELLO, wire.pack_hello(1, points), 1,
+                                      version=1))
     with pytest.raises(ServerSaid) as info:
-        v2.reply()
+        v1.reply()
     assert info.value.code == ErrorCode.VERSION_MISMATCH
-    assert "version 2" in info.value.message and "version 1" in info.value.message
+    assert "version 1" in info.value.message and "version 2" in info.value.message
     busy = Client(case)
     with pytest.raises(ServerSaid) as info:
-        busy.hello(points[:5], rank=0)                          # rank 0 is connected
+        busy.hello(points[:5])                                  # the case has its link
     assert info.value.code == ErrorCode.BUSY
     good.request(TIMES[1])                                      # still serving
     good.bye()
@@ -276,7 +278,7 @@ def test_non_loopback_tcp_needs_a_token(case, scene, animator):
 def test_tcp_loopback(case, serve, points):
     srv = serve(case, tcp_port=0)
     sock = socket.create_connection(srv.tcp_address)
-    wire.send_frame(sock, MessageType.HELLO, wire.pack_hello(0, 1, points[:10]), 1)
+    wire.send_frame(sock, MessageType.HELLO, wire.pack_hello(1, points[:10]), 1)
     assert wire.read_frame(sock, 10).type == MessageType.WELCOME
     wire.send_frame(sock, MessageType.BYE, b"", 2)
     sock.close()
@@ -311,7 +313,7 @@ def test_vanished_client_saves_state(case, serve, points):
     assert (case / "adapter" / f"state_{time_name(TIMES[1])}.npz").exists()
 
 
-def test_model_failure_reaches_every_client(case, serve, scene, points):
+def test_model_failure_reaches_the_client(case, serve, scene, points):
     class Failing(Animator):
         def displacement(self, t):
             if t > 0.015:
@@ -319,15 +321,12 @@ def test_model_failure_reaches_every_client(case, serve, scene, points):
             return super().displacement(t)
 
     srv = serve(case, animator=Failing(scene))
-    a, b = Client(case), Client(case)
-    a.hello(points[:10], rank=0, n_ranks=2)
-    b.hello(points[10:20], rank=1, n_ranks=2)
+    a = Client(case)
+    a.hello(points[:20], n_ranks=2)
     a.request(0.01)
-    b.request(0.01)
-    for cl in (a, b):
-        with pytest.raises(ServerSaid) as info:
-            cl.request(0.02)
-        assert info.value.code == ErrorCode.MODEL_FAILURE and "dt_s" in info.value.message
+    with pytest.raises(ServerSaid) as info:
+        a.request(0.02)
+    assert info.value.code == ErrorCode.MODEL_FAILURE and "dt_s" in info.value.message
     assert finished(srv) == 1
 
 
@@ -356,3 +355,64 @@ def test_command_line(case, points):
             proc.kill()
     assert proc.returncode == 0, err
     assert "1 requests served" in out
+
+
+def test_endpoint_file_names_where_the_server_listens(case, serve, points):
+    """UNIX only: the socket path; TCP: host and port (never the token); written by rename,
+    removed at exit."""
+    srv = serve(case)
+    text = (case / ".whale-adapter.endpoint").read_text()
+    assert f"unix {case / '.whale-adapter.sock'}\n" in text and f"pid {os.getpid()}\n" in text
+    Client(case).bye()
+    srv.stop()
+    finished(srv)
+    assert not (case / ".whale-adapter.endpoint").exists()
+
+    srv = serve(case, tcp_port=0, host="localhost", token="s3cret")
+    fields = dict(line.split(" ", 1) for line in
+                  (case / ".whale-adapter.endpoint").read_text().splitlines()
+                  if not line.startswith("#"))
+    assert fields["host"] == "localhost" and int(fields["port"]) == srv.tcp_address[1]
+    assert "unix" not in fields and "s3cret" not in str(fields)
+    assert not list(case.glob("*.tmp"))
+    c = Client(address=(fields["host"], int(fields["port"])))
+    c.hello(points[:5], token="s3cret")
+    c.bye()
+    assert finished(srv) == 0
+    assert not (case / ".whale-adapter.endpoint").exists()
+
+
+def test_another_hosts_server_is_never_judged_stale(case, scene, animator):
+    """A pid file from another host: this host cannot probe its socket nor its pid, so the
+    start is refused naming that host, and its socket and endpoint are left alone."""
+    (case / ".whale-adapter.pid").write_text("4242 node-elsewhere\n")
+    (case / ".whale-adapter.endpoint").write_text("host node-elsewhere\nport 4000\n")
+    stale_looking = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    stale_looking.bind(str(case / ".whale-adapter.sock"))          # refuses connections here
+    stale_looking.close()
+    with pytest.raises(ServerStartError, match="on host node-elsewhere .pid 4242."):
+        StepServer(case, scene, animator=animator).start()
+    for name in (".whale-adapter.pid", ".whale-adapter.endpoint", ".whale-adapter.sock"):
+        assert (case / name).exists(), name
+    # the same host's pid file: the dead socket is judged stale and replaced
+    (case / ".whale-adapter.pid").write_text(f"4242 {socket.gethostname()}\n")
+    srv = StepServer(case, scene, animator=animator)
+    srv.start()
+    assert "unix " in (case / ".whale-adapter.endpoint").read_text()
+    srv._finish()
+
+
+def test_token_file_must_be_private(tmp_path, monkeypatch):
+    from adapter.server import resolve_token
+
+    f = tmp_path / "token"
+    f.write_text("s3cret\n")
+    f.chmod(0o644)
+    with pytest.raises(ServerStartError, match="chmod 600"):
+        resolve_token(f)
+    f.chmod(0o600)
+    assert resolve_token(f) == "s3cret"
+    monkeypatch.setenv("WHALE_ADAPTER_TOKEN", "from-env")
+    assert resolve_token(None) == "from-env"
+    monkeypatch.delenv("WHALE_ADAPTER_TOKEN")
+    assert resolve_token(None) is None

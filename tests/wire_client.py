@@ -23,7 +23,7 @@ class ServerSaid(Exception):
 
 
 class Client:
-    """One OpenFOAM rank, on the case's UNIX socket or (``address``) on TCP."""
+    """OpenFOAM's master rank (a case's one link), on the UNIX socket or (``address``) on TCP."""
 
     def __init__(self, case: Path | None = None, address=None):
         if address is None:
@@ -45,8 +45,8 @@ class Client:
         assert frame.seq == self.seq
         return frame
 
-    def hello(self, points, rank=0, n_ranks=1, token=""):
-        f = self.call(MessageType.HELLO, wire.pack_hello(rank, n_ranks, points, token))
+    def hello(self, points, n_ranks=1, token=""):
+        f = self.call(MessageType.HELLO, wire.pack_hello(n_ranks, points, token))
         assert f.type == MessageType.WELCOME
         return wire.unpack_welcome(f.payload)
 

@@ -39,7 +39,7 @@ void stepServerDisplacementPointPatchVectorField::readEntries
     socket_ = dict.getOrDefault<fileName>("socket", fileName::null);
     host_ = dict.getOrDefault<string>("host", "127.0.0.1");
     port_ = dict.getOrDefault<label>("port", 0);
-    token_ = dict.getOrDefault<string>("token", string::null);
+    endpointFile_ = dict.getOrDefault<fileName>("endpoint", fileName::null);
     connectTimeout_ = dict.getOrDefault<scalar>("connectTimeout", 5);
     replyTimeout_ = dict.getOrDefault<scalar>("replyTimeout", 120);
     rhoInf_ = dict.getOrDefault<scalar>("rhoInf", 1025);
@@ -50,10 +50,23 @@ void stepServerDisplacementPointPatchVectorField::readEntries
             << "stepServer: port " << port_
             << " out of range, expected 1..65535" << exit(FatalIOError);
     }
-    if (dict.found("port") && dict.found("socket"))
+    if
+    (
+        int(dict.found("port")) + int(dict.found("socket"))
+      + int(dict.found("endpoint")) > 1
+    )
     {
         FatalIOErrorInFunction(dict)
-            << "stepServer: give either socket (UNIX) or port (TCP), not both"
+            << "stepServer: give one of socket (UNIX), port (TCP) or endpoint"
+            << " (the server's endpoint file), not several"
+            << exit(FatalIOError);
+    }
+    if (dict.found("token"))
+    {
+        FatalIOErrorInFunction(dict)
+            << "stepServer: a 'token' entry is not read (it would be written"
+            << " into every time folder): remove it and set the environment"
+            << " variable WHALE_ADAPTER_TOKEN for the master rank instead"
             << exit(FatalIOError);
     }
     if (dict.found("host") && !dict.found("port"))
@@ -86,94 +99,27 @@ stepServerDisplacementPointPatchVectorField::endpoint() const
         ep.host = host_;
         ep.port = int(port_);
     }
-    else if (socket_.empty())
-    {
-        // The global case: one socket for all ranks
-        ep.socketPath =
-            this->db().time().globalPath()/".whale-adapter.sock";
-    }
-    else
+    else if (!socket_.empty())
     {
         fileName s(socket_);
         s.expand();
         ep.socketPath = s;
     }
+    else if (!endpointFile_.empty())
+    {
+        fileName f(endpointFile_);
+        f.expand();
+        ep.endpointFile = f;
+    }
+    else
+    {
+        // The global case's endpoint file, as the server writes it
+        ep.endpointFile =
+            this->db().time().globalPath()/".whale-adapter.endpoint";
+    }
     ep.connectTimeout = connectTimeout_;
     ep.replyTimeout = replyTimeout_;
     return ep;
-}
-
-
-void stepServerDisplacementPointPatchVectorField::connect()
-{
-    const polyMesh& mesh = this->internalField().mesh()();
-
-    // Undeformed coordinates: the motion solver's own points0
-    // (points0 if present, else polyMesh/points from constant), not the
-    // current, possibly already moved, mesh points
-    const pointIOField points0(points0MotionSolver::points0IO(mesh));
-    if (points0.size() != mesh.nPoints())
-    {
-        FatalErrorInFunction
-            << "stepServer: " << points0.objectPath() << " has "
-            << points0.size() << " points, the mesh " << mesh.nPoints()
-            << exit(FatalError);
-    }
-
-    const labelList& meshPoints = this->patch().meshPoints();
-    std::vector<double> pts;
-    pts.reserve(3*meshPoints.size());
-    for (const label pointi : meshPoints)
-    {
-        const point& p = points0[pointi];
-        pts.push_back(p.x());
-        pts.push_back(p.y());
-        pts.push_back(p.z());
-    }
-
-    const stepServer::Endpoint ep(endpoint());
-    state_->client.reset(new stepServer::stepServerClient(ep));
-
-    try
-    {
-        state_->client->connect();
-    }
-    catch (const stepServer::stepServerError& e)
-    {
-        state_->failed = true;
-        FatalErrorInFunction
-            << "stepServer: " << e.what() << nl
-            << "    Is the step-server running for this case? Start it with:"
-            << nl << "        whale-adapter serve --case "
-            << this->db().time().globalPath().c_str()
-            << (ep.port > 0 ? "   (listening on TCP " + ep.describe() + ")" : std::string()).c_str()
-            << nl << "    and check the 'socket' (or 'port') entry of patch "
-            << this->patch().name() << " in pointDisplacement."
-            << exit(FatalError);
-    }
-
-    stepServer::Welcome w;
-    try
-    {
-        w = state_->client->hello
-        (
-            Pstream::myProcNo(), Pstream::nProcs(), token_, pts
-        );
-    }
-    catch (const stepServer::stepServerError& e)
-    {
-        state_->failed = true;
-        FatalErrorInFunction
-            << "stepServer: HELLO failed on patch " << this->patch().name()
-            << ": " << e.what() << exit(FatalError);
-    }
-
-    Info<< "stepServer: connected to " << ep.describe().c_str()
-        << " on patch " << this->patch().name()
-        << " (" << Pstream::nProcs() << " rank(s), master sent "
-        << meshPoints.size() << " points); max mapping distance "
-        << w.maxMappingDistance << " m, internal step "
-        << w.internalStep << " s" << endl;
 }
 
 
@@ -237,7 +183,7 @@ stepServerDisplacementPointPatchVectorField
     socket_(),
     host_("127.0.0.1"),
     port_(0),
-    token_(),
+    endpointFile_(),
     connectTimeout_(5),
     replyTimeout_(120),
     rhoInf_(1025),
@@ -284,7 +230,7 @@ stepServerDisplacementPointPatchVectorField
     socket_(ptf.socket_),
     host_(ptf.host_),
     port_(ptf.port_),
-    token_(ptf.token_),
+    endpointFile_(ptf.endpointFile_),
     connectTimeout_(ptf.connectTimeout_),
     replyTimeout_(ptf.replyTimeout_),
     rhoInf_(ptf.rhoInf_),
@@ -303,7 +249,7 @@ stepServerDisplacementPointPatchVectorField
     socket_(ptf.socket_),
     host_(ptf.host_),
     port_(ptf.port_),
-    token_(ptf.token_),
+    endpointFile_(ptf.endpointFile_),
     connectTimeout_(ptf.connectTimeout_),
     replyTimeout_(ptf.replyTimeout_),
     rhoInf_(ptf.rhoInf_),
@@ -348,16 +294,20 @@ void stepServerDisplacementPointPatchVectorField::updateCoeffs()
             << " OpenFOAM from the latest time." << exit(FatalError);
     }
 
-    const bool first = !state_->client;
+    const bool first = !state_->started;
     if (first)
     {
         connect();
     }
 
-    // Forces from the fields at this mesh update (last completed step);
-    // NaN for the first request of a connection
+    const auto start = std::chrono::steady_clock::now();
+
+    // Forces from the fields at this mesh update (last completed step),
+    // summed over the ranks; NaN for the first request of a connection
     vector fp, fv;
     patchForces(fp, fv);
+    reduce(fp, sumOp<vector>());
+    reduce(fv, sumOp<vector>());
     if (first)
     {
         const scalar nan = std::numeric_limits<scalar>::quiet_NaN();
@@ -365,37 +315,19 @@ void stepServerDisplacementPointPatchVectorField::updateCoeffs()
         fv = fp;
     }
 
-    std::vector<double> d;
-    try
+    // The master's REQUEST for all points, each rank's slice scattered
+    this->operator==(exchange(fp, fv));
+
+    if (Pstream::master())
     {
-        const auto start = std::chrono::steady_clock::now();
-        d = state_->client->request
-        (
-            t.value(),
-            {fp.x(), fp.y(), fp.z()},
-            {fv.x(), fv.y(), fv.z()}
-        );
+        // The coupling cost per step as OpenFOAM sees it: forces reduced,
+        // request and reply, displacements scattered
         state_->exchangeSeconds += std::chrono::duration<double>
         (
             std::chrono::steady_clock::now() - start
         ).count();
         ++state_->nRequests;
     }
-    catch (const stepServer::stepServerError& e)
-    {
-        state_->failed = true;
-        FatalErrorInFunction
-            << "stepServer: REQUEST at time " << t.timeName()
-            << " on patch " << this->patch().name() << " failed: "
-            << e.what() << exit(FatalError);
-    }
-
-    vectorField disp(this->size());
-    forAll(disp, i)
-    {
-        disp[i] = vector(d[3*i], d[3*i + 1], d[3*i + 2]);
-    }
-    this->operator==(disp);
 
     fixedValuePointPatchField<vector>::updateCoeffs();
 }
@@ -441,9 +373,9 @@ void stepServerDisplacementPointPatchVectorField::write(Ostream& os) const
         os.writeEntry("host", host_);
         os.writeEntry("port", port_);
     }
-    if (!token_.empty())
+    if (!endpointFile_.empty())
     {
-        os.writeEntry("token", token_);
+        os.writeEntry("endpoint", endpointFile_);
     }
     os.writeEntry("connectTimeout", connectTimeout_);
     os.writeEntry("replyTimeout", replyTimeout_);
