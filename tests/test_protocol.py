@@ -125,23 +125,27 @@ def _frame(version, msg_type, payload=b"", seq=1):
     return struct.pack("<4sHHII", b"WHAL", version, msg_type, len(payload), seq) + payload
 
 
-def _hello(rank, n_ranks, points, token=b""):
-    # u32 rank, u32 nRanks, u32 nPoints, u32 tokenLength, token, nPoints x 3 f64
+#: the protocol version of docs/protocol.md
+SPEC_VERSION = 2
+
+
+def _hello(n_ranks, points, token=b""):
+    # u32 nRanks, u32 nPoints, u32 tokenLength, token, nPoints x 3 f64
     pts = [float(c) for p in points for c in p]
-    return (struct.pack("<IIII", rank, n_ranks, len(points), len(token)) + token
+    return (struct.pack("<III", n_ranks, len(points), len(token)) + token
             + struct.pack(f"<{len(pts)}d", *pts))
 
 
-@pytest.mark.parametrize("version", [0, 2, 3, 0xFFFF])
+@pytest.mark.parametrize("version", [0, 1, 3, 0xFFFF])
 @pytest.mark.parametrize("msg_type", [1, 3, 7])
 def test_a_hand_built_frame_of_another_version_is_refused(version, msg_type):
-    payload = _hello(0, 1, [(1.0, 2.0, 3.0)]) if msg_type == 1 else b""
+    payload = _hello(1, [(1.0, 2.0, 3.0)]) if msg_type == 1 else b""
     data = _frame(version, msg_type, payload)
     for decode in (wire.decode_frame, lambda d: wire.decode_header(d[:16])):
         with pytest.raises(WireError) as info:
             decode(data)
         assert info.value.code == ErrorCode.VERSION_MISMATCH == 2
-        assert f"version {version}" in str(info.value) and "version 1" in str(info.value)
+        assert f"version {version}" in str(info.value) and "version 2" in str(info.value)
     # and over a socket, before the payload is read
     a, b = _pair()
     a.sendall(data)
@@ -152,19 +156,19 @@ def test_a_hand_built_frame_of_another_version_is_refused(version, msg_type):
     b.close()
 
 
-def test_a_hand_built_version_1_frame_is_accepted():
-    payload = _hello(1, 2, [(1.0, 2.0, 3.0), (-4.0, 0.5, 6.25)], token=b"ab")
-    frame = wire.decode_frame(_frame(1, 1, payload, seq=9))
+def test_a_hand_built_frame_of_the_spec_version_is_accepted():
+    payload = _hello(2, [(1.0, 2.0, 3.0), (-4.0, 0.5, 6.25)], token=b"ab")
+    frame = wire.decode_frame(_frame(SPEC_VERSION, 1, payload, seq=9))
     assert (frame.type, frame.seq, frame.payload) == (MessageType.HELLO, 9, payload)
     hello = wire.unpack_hello(frame.payload)
-    assert (hello.rank, hello.n_ranks, hello.token) == (1, 2, "ab")
+    assert (hello.n_ranks, hello.token) == (2, "ab")
     assert hello.points.tolist() == [[1.0, 2.0, 3.0], [-4.0, 0.5, 6.25]]
 
 
 @pytest.mark.parametrize("token", [b"", b"ab"])
 @pytest.mark.parametrize("extra", [b"\0", b"\0" * 7, b"\0" * 24])
 def test_a_hand_built_hello_with_trailing_bytes_is_refused(token, extra):
-    payload = _hello(0, 1, [(1.0, 2.0, 3.0), (4.0, 5.0, 6.0)], token) + extra
+    payload = _hello(1, [(1.0, 2.0, 3.0), (4.0, 5.0, 6.0)], token) + extra
     with pytest.raises(WireError) as info:
         wire.unpack_hello(payload)
     assert info.value.code == ErrorCode.BAD_HELLO == 3
@@ -172,7 +176,7 @@ def test_a_hand_built_hello_with_trailing_bytes_is_refused(token, extra):
 
 
 def test_a_hand_built_hello_one_byte_short_is_refused():
-    payload = _hello(0, 1, [(1.0, 2.0, 3.0)])[:-1]
+    payload = _hello(1, [(1.0, 2.0, 3.0)])[:-1]
     with pytest.raises(WireError) as info:
         wire.unpack_hello(payload)
     assert info.value.code == ErrorCode.BAD_HELLO
@@ -187,12 +191,12 @@ _BIG = wire.MAX_PAYLOAD
     (lambda: wire.encode_frame(MessageType.REQUEST, b"\0" * (_BIG + 1)), 1,
      f"payload of {_BIG + 1} bytes exceeds the limit of {_BIG} bytes"),
     (lambda: wire.decode_header(b"WHAL\x01\x00"), 1, "frame header has 6 bytes, expected 16"),
-    (lambda: wire.decode_frame(_frame(1, 7, b"")[:16] + b"x"), 1,
+    (lambda: wire.decode_frame(_frame(SPEC_VERSION, 7, b"")[:16] + b"x"), 1,
      "header announces 0 payload bytes, got 1"),
-    (lambda: wire.unpack_hello(bytes(15)), 3, "bad HELLO: payload has 15 bytes, expected at "
-     "least 16"),
-    (lambda: wire.unpack_hello(_hello(0, 0, [])), 3, "rank 0 of 0 ranks"),
-    (lambda: wire.unpack_hello(struct.pack("<IIII", 0, 1, 0, 2) + b"\xff\xfe"), 3,
+    (lambda: wire.unpack_hello(bytes(11)), 3, "bad HELLO: payload has 11 bytes, expected at "
+     "least 12"),
+    (lambda: wire.unpack_hello(_hello(0, [])), 3, "^bad HELLO: 0 ranks$"),
+    (lambda: wire.unpack_hello(struct.pack("<III", 1, 0, 2) + b"\xff\xfe"), 3,
      "^bad HELLO: token is not UTF-8$"),
     (lambda: wire.unpack_welcome(bytes(19)), 1, "bad WELCOME: payload has 19 bytes, expected 20"),
     (lambda: wire.unpack_request(bytes(57)), 1, "bad REQUEST: payload has 57 bytes, expected 56"),
@@ -216,14 +220,15 @@ def test_each_rejection_has_its_code_and_message(call, code, words):
 def test_limits_and_minimal_payloads_are_accepted():
     # a payload of exactly the limit may be sent and announced
     assert len(wire.encode_frame(MessageType.DISPLACEMENT, bytes(_BIG))) == 16 + _BIG
-    assert wire.decode_header(struct.pack("<4sHHII", b"WHAL", 1, 4, _BIG, 2)) == (
+    assert wire.decode_header(struct.pack("<4sHHII", b"WHAL", SPEC_VERSION, 4, _BIG, 2)) == (
         MessageType.DISPLACEMENT, _BIG, 2)
     # defaults: no payload, sequence number 0
-    assert wire.encode_frame(MessageType.BYE) == struct.pack("<4sHHII", b"WHAL", 1, 7, 0, 0)
+    assert wire.encode_frame(MessageType.BYE) == struct.pack("<4sHHII", b"WHAL", SPEC_VERSION, 7,
+                                                             0, 0)
     # the smallest valid payloads: a one-rank HELLO with no points and no token, an empty
     # DISPLACEMENT, an ERROR with an empty message
-    hello = wire.unpack_hello(struct.pack("<IIII", 0, 1, 0, 0))
-    assert (hello.rank, hello.n_ranks, hello.token, hello.points.shape) == (0, 1, "", (0, 3))
+    hello = wire.unpack_hello(struct.pack("<III", 1, 0, 0))
+    assert (hello.n_ranks, hello.token, hello.points.shape) == (1, "", (0, 3))
     t, d = wire.unpack_displacement(struct.pack("<dI", 2.5, 0))
     assert t == 2.5 and d.shape == (0, 3)
     assert wire.unpack_error(struct.pack("<I", 6)) == (6, "")
@@ -235,13 +240,13 @@ def test_unsigned_fields_and_hand_packed_payloads():
     big = 2**31 + 5
     assert wire.unpack_error(struct.pack("<I", big) + "é".encode())[0] == big
     assert wire.pack_error(big, "x") == struct.pack("<I", big) + b"x"
-    assert wire.pack_hello(big, big + 1, [[1, 2, 3]], token="é") == _hello(
-        big, big + 1, [(1.0, 2.0, 3.0)], "é".encode())
-    hello = wire.unpack_hello(_hello(big, big + 1, [(1.0, 2.0, 3.0)]))
-    assert (hello.rank, hello.n_ranks) == (big, big + 1)
+    assert wire.pack_hello(big + 1, [[1, 2, 3]], token="é") == _hello(
+        big + 1, [(1.0, 2.0, 3.0)], "é".encode())
+    hello = wire.unpack_hello(_hello(big + 1, [(1.0, 2.0, 3.0)]))
+    assert hello.n_ranks == big + 1
     pts = [[1, 2, 3], [4, 5, 6]]  # integers: sent as float64
     assert wire.pack_displacement(0.25, pts) == struct.pack("<dI6d", 0.25, 2, *range(1, 7))
-    assert wire.pack_hello(0, 1, pts)[16:] == struct.pack("<6d", *range(1, 7))
+    assert wire.pack_hello(1, pts)[12:] == struct.pack("<6d", *range(1, 7))
     # a bad byte in an ERROR message is replaced, not raised
     assert wire.unpack_error(struct.pack("<I", 1) + b"a\xffb") == (1, "a\ufffdb")
 
@@ -249,11 +254,11 @@ def test_unsigned_fields_and_hand_packed_payloads():
 def test_read_frame_restores_the_socket_timeout_and_names_what_was_truncated():
     a, b = _pair()
     b.settimeout(2.5)
-    a.sendall(_frame(1, 7))
+    a.sendall(_frame(SPEC_VERSION, 7))
     assert wire.read_frame(b, 5).type == MessageType.BYE
     assert b.gettimeout() == 2.5
-    for data, words in ((_frame(1, 7)[:9], "after 8 of 15 header rest bytes"),
-                        (_frame(1, 5, bytes(8))[:20], "after 4 of 8 payload bytes")):
+    for data, words in ((_frame(SPEC_VERSION, 7)[:9], "after 8 of 15 header rest bytes"),
+                        (_frame(SPEC_VERSION, 5, bytes(8))[:20], "after 4 of 8 payload bytes")):
         a.sendall(data)
         with pytest.raises(WireError, match=words):
             wire.read_frame(b, 0.2)
@@ -269,7 +274,7 @@ def test_send_frame_writes_the_spec_bytes():
     a, b = _pair()
     wire.send_frame(a, MessageType.WRITE, struct.pack("<d", 1.5), seq=12)
     wire.send_frame(a, MessageType.BYE)
-    want = _frame(1, 5, struct.pack("<d", 1.5), seq=12) + _frame(1, 7, seq=0)
+    want = _frame(SPEC_VERSION, 5, struct.pack("<d", 1.5), seq=12) + _frame(SPEC_VERSION, 7, seq=0)
     got = b""
     while len(got) < len(want):
         got += b.recv(4096)
@@ -299,5 +304,5 @@ class _OneByteAtATime:
 
 def test_read_frame_assembles_a_frame_read_one_byte_at_a_time():
     payload = struct.pack("<d", 1.5)
-    frame = wire.read_frame(_OneByteAtATime(_frame(1, 5, payload, seq=3)), 5)
+    frame = wire.read_frame(_OneByteAtATime(_frame(SPEC_VERSION, 5, payload, seq=3)), 5)
     assert (frame.type, frame.seq, frame.payload) == (MessageType.WRITE, 3, payload)
