@@ -36,6 +36,15 @@ import pytest
 
 from adapter import case as C
 
+from .channel_case import (
+    FV_SCHEMES,
+    HEADER,
+    flow_files,
+    fv_solution,
+    side_quad,
+    vertex,
+    write_files,
+)
 from .conftest import NEEDS_FOAM_AND_PLUGIN
 
 pytestmark = [
@@ -50,20 +59,9 @@ OMEGA_ROTATE = 2.0                       # rad/s about z through the origin, rot
 PATCHES = ["body_left", "body_right", "body_lower", "body_upper"]
 COLUMNS = ["Fx", "Fy", "Fz", "Fpx", "Fpy", "Fpz", "Fvx", "Fvy", "Fvz", "P", "Pp", "Pv", "A"]
 
-_HEADER = "FoamFile {{ version 2.0; format ascii; class {cls}; object {obj}; }}\n"
-
 # x and y block edges (the hole is the middle block) and cells per block
 _XS, _NX = (-1.5, -0.25, 0.25, 3.0), (10, 8, 16)
 _YS, _NY = (-1.5, -0.25, 0.25, 1.5), (10, 8, 10)
-
-
-def _v(i: int, j: int, k: int) -> int:
-    return k * 16 + j * 4 + i
-
-
-def _quad(a: tuple, b: tuple) -> str:
-    """The side face of the z-extruded edge from vertex (i, j) a to b."""
-    return f"({_v(*a, 0)} {_v(*b, 0)} {_v(*b, 1)} {_v(*a, 1)})"
 
 
 #: the solids of the regions STL (in the file's order) and the patches of the four-patch case
@@ -101,19 +99,19 @@ def _block_mesh_dict(merged: bool = False) -> str:
         for i in range(3):
             if (i, j) == (1, 1):
                 continue
-            c = [_v(i, j, 0), _v(i + 1, j, 0), _v(i + 1, j + 1, 0), _v(i, j + 1, 0)]
+            c = [vertex(i, j, 0), vertex(i + 1, j, 0), vertex(i + 1, j + 1, 0), vertex(i, j + 1, 0)]
             blocks.append(f"hex ({' '.join(map(str, c + [n + 16 for n in c]))}) "
                           f"({_NX[i]} {_NY[j]} 1) simpleGrading (1 1 1)")
             planes += [f"({' '.join(map(str, c[::-1]))})", f"({' '.join(str(n + 16) for n in c)})"]
     side = {
-        "inlet": ("patch", [_quad((0, j), (0, j + 1)) for j in range(3)]),
-        "outlet": ("patch", [_quad((3, j), (3, j + 1)) for j in range(3)]),
-        "walls": ("patch", [_quad((i, 0), (i + 1, 0)) for i in range(3)]
-                  + [_quad((i, 3), (i + 1, 3)) for i in range(3)]),
-        "body_left": ("wall", [_quad((1, 1), (1, 2))]),
-        "body_right": ("wall", [_quad((2, 1), (2, 2))]),
-        "body_lower": ("wall", [_quad((1, 1), (2, 1))]),
-        "body_upper": ("wall", [_quad((1, 2), (2, 2))]),
+        "inlet": ("patch", [side_quad((0, j), (0, j + 1)) for j in range(3)]),
+        "outlet": ("patch", [side_quad((3, j), (3, j + 1)) for j in range(3)]),
+        "walls": ("patch", [side_quad((i, 0), (i + 1, 0)) for i in range(3)]
+                  + [side_quad((i, 3), (i + 1, 3)) for i in range(3)]),
+        "body_left": ("wall", [side_quad((1, 1), (1, 2))]),
+        "body_right": ("wall", [side_quad((2, 1), (2, 2))]),
+        "body_lower": ("wall", [side_quad((1, 1), (2, 1))]),
+        "body_upper": ("wall", [side_quad((1, 2), (2, 2))]),
         "frontAndBack": ("empty", planes),
     }
     if merged:
@@ -125,7 +123,7 @@ def _block_mesh_dict(merged: bool = False) -> str:
         f"{name} {{ type {kind}; "
         f"{'inGroups (body);' if name.startswith('body') or name == 'whale' else ''} "
         f"faces ({' '.join(faces)}); }}" for name, (kind, faces) in side.items())
-    return (_HEADER.format(cls="dictionary", obj="blockMeshDict")
+    return (HEADER.format(cls="dictionary", obj="blockMeshDict")
             + f"convertToMeters 1;\nvertices ({verts});\nblocks ({' '.join(blocks)});\n"
             + f"edges ();\nboundary (\n{boundary}\n);\nmergePatchPairs ();\n")
 
@@ -138,7 +136,7 @@ def _motion(kind: str) -> str:
     else:
         coeffs = (f"solidBodyMotionFunction rotatingMotion; rotatingMotionCoeffs "
                   f"{{ origin (0 0 0); axis (0 0 1); omega {OMEGA_ROTATE}; }}")
-    return (_HEADER.format(cls="dictionary", obj="dynamicMeshDict")
+    return (HEADER.format(cls="dictionary", obj="dynamicMeshDict")
             + "dynamicFvMesh dynamicMotionSolverFvMesh;\n"
             + 'motionSolverLibs ("libfvMotionSolvers.so");\n'
             + f"solver solidBody;\nsolidBodyCoeffs {{ {coeffs} }}\n")
@@ -162,7 +160,7 @@ def _control_dict(lib, merged: bool = False) -> str:
         # the stock forces on the patches each region covers
         loads_extra = ""
         truth = "".join(_forces(f"forces_{r}", " ".join(p)) for r, p in REGIONS.items())
-    return (_HEADER.format(cls="dictionary", obj="controlDict") + f"""
+    return (HEADER.format(cls="dictionary", obj="controlDict") + f"""
 application pimpleFoam; startFrom startTime; startTime 0; stopAt endTime;
 endTime {N_STEPS * DT}; deltaT {DT}; writeControl timeStep; writeInterval {N_STEPS};
 writeFormat ascii; writePrecision 16; timeFormat general; timePrecision 6;
@@ -180,53 +178,16 @@ functions
 
 
 _FILES = {
-    "system/fvSchemes": ("dictionary", """
-ddtSchemes { default Euler; } gradSchemes { default Gauss linear; }
-divSchemes { default none; div(phi,U) Gauss linearUpwind grad(U);
-             div((nuEff*dev2(T(grad(U))))) Gauss linear; }
-laplacianSchemes { default Gauss linear corrected; } interpolationSchemes { default linear; }
-snGradSchemes { default corrected; }
-"""),
-    "system/fvSolution": ("dictionary", """
-solvers
-{
-    "(p|pcorr)" { solver PCG; preconditioner DIC; tolerance 1e-8; relTol 0.01; }
-    "(p|pcorr)Final" { $p; relTol 0; }
-    "(U|UFinal)" { solver smoothSolver; smoother symGaussSeidel; tolerance 1e-8; relTol 0; }
-}
-PIMPLE { correctPhi yes; nOuterCorrectors 1; nCorrectors 2; nNonOrthogonalCorrectors 0; }
-"""),
-    "constant/transportProperties": ("dictionary", "transportModel Newtonian; nu 0.01;\n"),
-    "constant/turbulenceProperties": ("dictionary", "simulationType laminar;\n"),
-    "0/U": ("volVectorField", """
-dimensions [0 1 -1 0 0 0 0]; internalField uniform (1 0 0);
-boundaryField
-{
-    inlet { type fixedValue; value uniform (1 0 0); }
-    outlet { type inletOutlet; inletValue uniform (0 0 0); value uniform (1 0 0); }
-    walls { type slip; }
-    body { type movingWallVelocity; value uniform (0 0 0); }
-    frontAndBack { type empty; }
-}
-"""),
-    "0/p": ("volScalarField", """
-dimensions [0 2 -2 0 0 0 0]; internalField uniform 0;
-boundaryField
-{
-    inlet { type zeroGradient; } outlet { type fixedValue; value uniform 0; }
-    walls { type zeroGradient; } body { type zeroGradient; } frontAndBack { type empty; }
-}
-"""),
+    "system/fvSchemes": ("dictionary", FV_SCHEMES),
+    "system/fvSolution": ("dictionary", fv_solution(1e-8, 0.01)),
+    **flow_files("body"),
 }
 
 
 def make_case(case, motion: str, lib=C.PLUGIN_LIB, merged: bool = False) -> None:
     """Write the test case for ``motion`` ("translate" or "rotate") into ``case``; ``merged``:
     the body is one patch ``whale`` with the regions STL."""
-    for rel, (cls, body) in _FILES.items():
-        path = case / rel
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(_HEADER.format(cls=cls, obj=path.name) + body)
+    write_files(case, _FILES)
     (case / "system" / "blockMeshDict").write_text(_block_mesh_dict(merged))
     (case / "system" / "controlDict").write_text(_control_dict(lib, merged))
     if merged:
@@ -272,7 +233,7 @@ def _run(tmp_path_factory, motion: str, ranks: int = 1, merged: bool = False):
         C.run_utility(case, ["pimpleFoam"])
     else:
         (case / "system" / "decomposeParDict").write_text(
-            _HEADER.format(cls="dictionary", obj="decomposeParDict") + _DECOMPOSE)
+            HEADER.format(cls="dictionary", obj="decomposeParDict") + _DECOMPOSE)
         C.run_utility(case, ["decomposePar"])
         C.run_utility(case, ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", "2",
                              "pimpleFoam", "-parallel"], log_name="pimpleFoam")

@@ -32,6 +32,15 @@ import pytest
 from adapter import case as C
 from adapter.yplus import read_boundary, read_faces, read_points
 
+from .channel_case import (
+    FV_SCHEMES,
+    HEADER,
+    flow_files,
+    fv_solution,
+    side_quad,
+    vertex,
+    write_files,
+)
 from .conftest import NEEDS_FOAM_AND_PLUGIN
 
 pytestmark = [
@@ -46,17 +55,8 @@ ANGLE = 0.4                          # rad, angularOscillatingDisplacement ampli
 OMEGA = 12.0                         # rad/s, both
 INNER, OUTER, ROT = 0.06, 1.0, 0.4   # innerDistance, outerDistance, rotationDistance (m)
 
-_HEADER = "FoamFile {{ version 2.0; format ascii; class {cls}; object {obj}; }}\n"
 _XS, _NX, _GX = (-1.5, -0.25, 0.25, 3.0), (10, 8, 16), (0.03, 1, 30)
 _YS, _NY, _GY = (-1.5, -0.25, 0.25, 1.5), (10, 8, 10), (0.03, 1, 30)
-
-
-def _v(i: int, j: int, k: int) -> int:
-    return k * 16 + j * 4 + i
-
-
-def _quad(a: tuple, b: tuple) -> str:
-    return f"({_v(*a, 0)} {_v(*b, 0)} {_v(*b, 1)} {_v(*a, 1)})"
 
 
 def _block_mesh_dict() -> str:
@@ -66,22 +66,22 @@ def _block_mesh_dict() -> str:
         for i in range(3):
             if (i, j) == (1, 1):
                 continue
-            c = [_v(i, j, 0), _v(i + 1, j, 0), _v(i + 1, j + 1, 0), _v(i, j + 1, 0)]
+            c = [vertex(i, j, 0), vertex(i + 1, j, 0), vertex(i + 1, j + 1, 0), vertex(i, j + 1, 0)]
             blocks.append(f"hex ({' '.join(map(str, c + [n + 16 for n in c]))}) "
                           f"({_NX[i]} {_NY[j]} 1) simpleGrading ({_GX[i]} {_GY[j]} 1)")
             planes += [f"({' '.join(map(str, c[::-1]))})", f"({' '.join(str(n + 16) for n in c)})"]
     side = {
-        "inlet": ("patch", [_quad((0, j), (0, j + 1)) for j in range(3)]),
-        "outlet": ("patch", [_quad((3, j), (3, j + 1)) for j in range(3)]),
-        "walls": ("patch", [_quad((i, 0), (i + 1, 0)) for i in range(3)]
-                  + [_quad((i, 3), (i + 1, 3)) for i in range(3)]),
-        "whale": ("wall", [_quad((1, 1), (1, 2)), _quad((2, 1), (2, 2)),
-                           _quad((1, 1), (2, 1)), _quad((1, 2), (2, 2))]),
+        "inlet": ("patch", [side_quad((0, j), (0, j + 1)) for j in range(3)]),
+        "outlet": ("patch", [side_quad((3, j), (3, j + 1)) for j in range(3)]),
+        "walls": ("patch", [side_quad((i, 0), (i + 1, 0)) for i in range(3)]
+                  + [side_quad((i, 3), (i + 1, 3)) for i in range(3)]),
+        "whale": ("wall", [side_quad((1, 1), (1, 2)), side_quad((2, 1), (2, 2)),
+                           side_quad((1, 1), (2, 1)), side_quad((1, 2), (2, 2))]),
         "frontAndBack": ("empty", planes),
     }
     boundary = "\n".join(f"{name} {{ type {kind}; faces ({' '.join(faces)}); }}"
                          for name, (kind, faces) in side.items())
-    return (_HEADER.format(cls="dictionary", obj="blockMeshDict")
+    return (HEADER.format(cls="dictionary", obj="blockMeshDict")
             + f"convertToMeters 1;\nvertices ({verts});\nblocks ({' '.join(blocks)});\n"
             + f"edges ();\nboundary (\n{boundary}\n);\nmergePatchPairs ();\n")
 
@@ -103,27 +103,11 @@ endTime {N_STEPS * DT}; deltaT {DT}; writeControl timeStep; writeInterval 1;
 writeFormat ascii; writePrecision 17; timeFormat general; timePrecision 12;
 runTimeModifiable false;
 """),
-        "system/fvSchemes": ("dictionary", """
-ddtSchemes { default Euler; } gradSchemes { default Gauss linear; }
-divSchemes { default none; div(phi,U) Gauss linearUpwind grad(U);
-             div((nuEff*dev2(T(grad(U))))) Gauss linear; }
-laplacianSchemes { default Gauss linear corrected; } interpolationSchemes { default linear; }
-snGradSchemes { default corrected; }
-"""),
-        "system/fvSolution": ("dictionary", """
-solvers
-{
-    "(p|pcorr)" { solver PCG; preconditioner DIC; tolerance 1e-10; relTol 0; }
-    "(p|pcorr)Final" { $p; }
-    "(U|UFinal)" { solver smoothSolver; smoother symGaussSeidel; tolerance 1e-10; relTol 0; }
-}
-PIMPLE { correctPhi yes; nOuterCorrectors 1; nCorrectors 2; nNonOrthogonalCorrectors 0; }
-"""),
+        "system/fvSchemes": ("dictionary", FV_SCHEMES),
+        "system/fvSolution": ("dictionary", fv_solution(1e-10, 0)),
         "system/decomposeParDict": ("dictionary",
                                     "numberOfSubdomains 2; method hierarchical;"
                                     " coeffs { n (1 2 1); }   // the square split\n"),
-        "constant/transportProperties": ("dictionary", "transportModel Newtonian; nu 0.01;\n"),
-        "constant/turbulenceProperties": ("dictionary", "simulationType laminar;\n"),
         "constant/dynamicMeshDict": ("dictionary", f"""
 dynamicFvMesh dynamicMotionSolverFvMesh;
 motionSolverLibs ("{lib}");
@@ -135,25 +119,7 @@ whaleBlendedDisplacementCoeffs
     rotation {'yes' if rotation else 'no'}; rotationDistance {ROT};
 }}
 """),
-        "0/U": ("volVectorField", """
-dimensions [0 1 -1 0 0 0 0]; internalField uniform (1 0 0);
-boundaryField
-{
-    inlet { type fixedValue; value uniform (1 0 0); }
-    outlet { type inletOutlet; inletValue uniform (0 0 0); value uniform (1 0 0); }
-    walls { type slip; }
-    whale { type movingWallVelocity; value uniform (0 0 0); }
-    frontAndBack { type empty; }
-}
-"""),
-        "0/p": ("volScalarField", """
-dimensions [0 2 -2 0 0 0 0]; internalField uniform 0;
-boundaryField
-{
-    inlet { type zeroGradient; } outlet { type fixedValue; value uniform 0; }
-    walls { type zeroGradient; } whale { type zeroGradient; } frontAndBack { type empty; }
-}
-"""),
+        **flow_files("whale"),
         "0/pointDisplacement": ("pointVectorField", f"""
 dimensions [0 1 0 0 0 0 0]; internalField uniform (0 0 0);
 boundaryField
@@ -169,10 +135,7 @@ boundaryField
 
 
 def make_case(case, motion: str, rotation: bool, lib=C.PLUGIN_LIB) -> None:
-    for rel, (cls, body) in _files(motion, rotation, lib).items():
-        path = case / rel
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(_HEADER.format(cls=cls, obj=path.name) + body)
+    write_files(case, _files(motion, rotation, lib))
     (case / "system" / "blockMeshDict").write_text(_block_mesh_dict())
 
 
