@@ -154,8 +154,9 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
     gd = ld.read_loads(glide)
     result = {
         "gliding_drag_N": drag,
-        "gliding_drag_pressure_N": _last_mean(gd, "total:Fpx", period),
-        "gliding_drag_viscous_N": _last_mean(gd, "total:Fvx", period),
+        # the split over the window of the drag (the last whole period after the first)
+        "gliding_drag_pressure_N": _last_period_mean(gd, "total:Fpx", period),
+        "gliding_drag_viscous_N": _last_period_mean(gd, "total:Fvx", period),
         "swimming_mean_fx_N": float(st.mean_fx[-1]),
         "swimming_mean_power_W": float(st.mean_power[-1]),
         **cost,
@@ -187,12 +188,13 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
     return summary
 
 
-def _last_mean(data: dict, key: str, period: float) -> float:
+def _last_period_mean(data: dict, key: str, period: float) -> float:
+    """Mean of a gliding column over the window of the gliding drag (ld.cycle_stats from the
+    second period on, the last whole one)."""
     if not data:
         return float("nan")
-    t = data["Time"]
-    sel = t > t[-1] - period
-    return float(data[key][sel].mean())
+    st = ld.cycle_stats(data["Time"], data[key], data[key], period, period)
+    return float(st.mean_fx[-1]) if len(st.starts) else float("nan")
 
 
 def _finite(obj):
