@@ -53,6 +53,8 @@ REGIONS_STL = "whale_regions.stl"
 #: inflow turbulence: intensity and free-stream eddy-viscosity ratio
 TURBULENCE_INTENSITY = 0.01
 EDDY_VISCOSITY_RATIO = 10.0
+#: run_case's stop_when is asked after this many new solver steps
+STOP_WHEN_STEPS = 10
 #: the signal pimpleFoam turns into "write now and stop" (-opt-switch stopAtWriteNowSignal)
 _STOP_SIGNAL = signal.SIGUSR1
 
@@ -846,9 +848,9 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     ``mpirun -np N pimpleFoam -parallel`` and reconstructPar. A case that has written times
     continues from the latest (controlDict ``startFrom latestTime``).
 
-    ``stop_when(case) -> str | None`` is asked every few
-    seconds while the solver runs; a reason ends the run (written) as the mesh watch does, and
-    is recorded as ``stopped_because`` (not an error).
+    ``stop_when(case) -> str | None`` is asked every :data:`STOP_WHEN_STEPS` solver steps and
+    once at the end; a reason ends the run (written) as the mesh watch does, and is recorded
+    as ``stopped_because`` (not an error).
 
     ``host``/``port``: the server listens on TCP there (port 0: any free one) and publishes
     it in ``<case>/.whale-adapter.endpoint``; else on the case's UNIX socket. ``token`` (None:
@@ -975,7 +977,7 @@ def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_
     limit = float(record.get("max_non_orthogonality", 80.0))
     show = _Progress(end_time, start_time) if progress else None
     stopped = None
-    asked = time.perf_counter()
+    asked_at = 0      # steps seen when stop_when was last asked
     with open(case / "log.pimpleFoam", "w") as log:
         proc = subprocess.Popen(cmd, cwd=case, stdout=log, stderr=subprocess.STDOUT,
                                 env=env or foam_env(), start_new_session=True)
@@ -990,10 +992,14 @@ def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_
                         what = f"the moved mesh is invalid ({watch.broken})"
                     stopped = f"mesh watch: {what}"
                     proc.send_signal(_STOP_SIGNAL)
-                if stopped is None and stop_when and time.perf_counter() - asked > 3.0:
-                    asked = time.perf_counter()
+                # asked every STOP_WHEN_STEPS new steps (not on a wall clock: a fast run
+                # would reach its end between two questions) and once more at the end
+                steps = len(watch.times)
+                if stopped is None and stop_when and (
+                        steps - asked_at >= STOP_WHEN_STEPS or rc is not None and steps > asked_at):
+                    asked_at = steps
                     stopped = stop_when(case)
-                    if stopped:
+                    if stopped and rc is None:
                         proc.send_signal(_STOP_SIGNAL)
                 if show:
                     show.show(watch)
