@@ -85,14 +85,14 @@ def read_points(path) -> np.ndarray:
     return pts.reshape(n, 3)
 
 
-def _matching(text: str, open_pos: int) -> int:
-    """Index of the parenthesis closing the one at open_pos."""
+def _matching(text: str, open_pos: int, pair: str = "()") -> int:
+    """Index of the bracket closing the one at open_pos (``pair``: "()" or "{}")."""
     depth = 0
-    for m in re.finditer(r"[()]", text[open_pos:]):
-        depth += 1 if m.group() == "(" else -1
+    for m in re.finditer(re.escape(pair[0]) + "|" + re.escape(pair[1]), text[open_pos:]):
+        depth += 1 if m.group() == pair[0] else -1
         if depth == 0:
             return open_pos + m.start()
-    raise AdapterError("unbalanced parentheses")
+    raise AdapterError(f"unbalanced {pair}")
 
 
 def read_faces(path) -> list:
@@ -141,7 +141,7 @@ def read_patch_field(path, patch: str, n_faces: int | None = None) -> np.ndarray
     m = re.compile(r"(?<![\w\"])" + re.escape(patch) + r"\s*\{").search(text, b.end())
     if not m:
         raise AdapterError(f"{path}: no patch {patch} in boundaryField")
-    end = _matching_brace(text, m.end() - 1)
+    end = _matching(text, m.end() - 1, "{}")
     entry = text[m.end():end]
     v = re.search(r"\bvalue\s+(uniform|nonuniform)\s+", entry)
     if not v:
@@ -160,15 +160,6 @@ def read_patch_field(path, patch: str, n_faces: int | None = None) -> np.ndarray
     if vals.size % max(n, 1):
         raise AdapterError(f"{path}: patch {patch}: {vals.size} numbers for {n} values")
     return vals if vals.size == n else vals.reshape(n, -1)
-
-
-def _matching_brace(text: str, open_pos: int) -> int:
-    depth = 0
-    for m in re.finditer(r"[{}]", text[open_pos:]):
-        depth += 1 if m.group() == "{" else -1
-        if depth == 0:
-            return open_pos + m.start()
-    raise AdapterError("unbalanced braces")
 
 
 # --------------------------------------------------------------------------------------------
