@@ -20,6 +20,7 @@ from .gait import (
     QUARTER_EVENTS,
     SmoothStroke,
     load_fluke_table,
+    joint_bend,
     place_gate,
     push_and_tether,
     ramp,
@@ -66,6 +67,9 @@ class Animator:
         self.hinge0 = self.rest[self.hinge_nodes].mean(axis=0)
         self._fluke_nodes = np.flatnonzero(self.fluke)
         self._fluke_arm = self.rest[self._fluke_nodes] - self.hinge0
+        #: the share of the fluke angle each fluke node turns by (1: the paper's hinge)
+        self._fluke_bend = joint_bend(s[self._fluke_nodes], self.tail_base_s,
+                                      scene.stroke.fluke_joint)
 
         sp_ = scene.springs
         r = scene.regions
@@ -192,7 +196,7 @@ class Animator:
         """Place the fluke gate: shifted with the hinge, rotated by the table's angle at t."""
         theta, theta_dot = self.fluke_angle(t)
         place_gate(X, V, self.rest, self.hinge_nodes, self._fluke_nodes, self._fluke_arm,
-                   self.hinge0, theta, theta_dot)
+                   self.hinge0, theta, theta_dot, self._fluke_bend)
 
     def fluke_angle(self, t: float) -> tuple[float, float]:
         """(angle, angular velocity) of the fluke gate at time t (rad, rad/s), ramp included."""

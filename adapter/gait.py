@@ -25,7 +25,9 @@ down strokes are mirror images.
 The fluke (every node behind the tail base) is not part of the spring system: it is a gate
 hinged at the tail base, shifted with it and rotated by the angle of a table interpolated in
 time: piecewise linearly with ``"negate"``, by a periodic cubic spline (continuous angular
-velocity) with ``"smooth"``.
+velocity) with ``"smooth"``. With ``stroke.fluke_joint`` > 0 the gate bends instead of
+folding: the pitch grows smoothly over that length behind the tail base (:func:`joint_bend`),
+so the surface, and the mesh layers on it, are not creased at the hinge line.
 """
 
 from __future__ import annotations
@@ -236,13 +238,15 @@ def push_and_tether(X, V, rest, moving, profile, damping, dG, dD, G1, D1, k, c, 
 
 
 @numba.njit(cache=True, error_model="numpy")
-def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_dot):
+def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_dot, bend):
     """Shift the fluke nodes with the hinge and rotate them by ``theta`` (in place).
 
-    The hinge is the mean of ``hinge_nodes``; each fluke node is
-    rest + (hinge - hinge0) + (R(theta) - I) arm0, written so that the flat pose is exactly
-    the rest, and its velocity is the hinge's plus theta_dot times (-z', 0, x') of the
-    rotated arm (R as in :func:`rotation_y`).
+    The hinge is the mean of ``hinge_nodes``; fluke node m is
+    rest + (hinge - hinge0) + (R(bend[m] theta) - I) arm0[m], written so that the flat pose is
+    exactly the rest, and its velocity is the hinge's plus bend[m] theta_dot times (-z', 0, x')
+    of the rotated arm (R as in :func:`rotation_y`). ``bend`` is 1 on every node for the
+    paper's hinged gate, and rises from 0 to 1 across the joint for a bending one
+    (:func:`joint_bend`).
     """
     hx = hy = hz = vx = vy = vz = 0.0
     for k in hinge_nodes:
@@ -255,15 +259,27 @@ def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_
     n = hinge_nodes.shape[0]
     sx, sy, sz = hx / n - hinge0[0], hy / n - hinge0[1], hz / n - hinge0[2]
     vx, vy, vz = vx / n, vy / n, vz / n
-    c, s = np.cos(theta), np.sin(theta)
     for m in range(fluke_nodes.shape[0]):
         i = fluke_nodes[m]
+        c, s = np.cos(bend[m] * theta), np.sin(bend[m] * theta)
+        rate = bend[m] * theta_dot
         ax, az = arm0[m, 0], arm0[m, 2]
         rx = c * ax - s * az
         rz = s * ax + c * az
         X[i, 0] = rest[i, 0] + sx + (rx - ax)
         X[i, 1] = rest[i, 1] + sy
         X[i, 2] = rest[i, 2] + sz + (rz - az)
-        V[i, 0] = vx - theta_dot * rz
+        V[i, 0] = vx - rate * rz
         V[i, 1] = vy
-        V[i, 2] = vz + theta_dot * rx
+        V[i, 2] = vz + rate * rx
+
+
+def joint_bend(s: np.ndarray, tail_base_s: float, joint: float) -> np.ndarray:
+    """The share of the fluke angle each fluke node turns by: 1 everywhere for the paper's
+    hinge (``joint`` = 0); for a bending joint of length ``joint`` (fraction of L) behind the
+    tail base, the quintic :func:`smootherstep` of (s - tail_base) / joint, so the pitch grows
+    from 0 at the tail base to the table's angle with no kink in the surface."""
+    if joint <= 0:
+        return np.ones_like(s)
+    u = np.clip((s - tail_base_s) / joint, 0.0, 1.0)
+    return u**3 * (10 - 15 * u + 6 * u * u)
