@@ -19,8 +19,8 @@ from .errors import GeometryError, SceneError, UnstableError
 from .gait import (
     QUARTER_EVENTS,
     SmoothStroke,
-    load_fluke_table,
     joint_bend,
+    load_fluke_table,
     place_gate,
     push_and_tether,
     ramp,

@@ -26,8 +26,9 @@ The fluke (every node behind the tail base) is not part of the spring system: it
 hinged at the tail base, shifted with it and rotated by the angle of a table interpolated in
 time: piecewise linearly with ``"negate"``, by a periodic cubic spline (continuous angular
 velocity) with ``"smooth"``. With ``stroke.fluke_joint`` > 0 the gate bends instead of
-folding: the pitch grows smoothly over that length behind the tail base (:func:`joint_bend`),
-so the surface, and the mesh layers on it, are not creased at the hinge line.
+folding: the fluke root turns with the body's own pitch at the tail base, and the pitch goes
+over to the table's angle smoothly along that length (:func:`joint_bend`), so the surface,
+and the mesh layers on it, are not creased at the hinge line.
 """
 
 from __future__ import annotations
@@ -239,16 +240,20 @@ def push_and_tether(X, V, rest, moving, profile, damping, dG, dD, G1, D1, k, c, 
 
 @numba.njit(cache=True, error_model="numpy")
 def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_dot, bend):
-    """Shift the fluke nodes with the hinge and rotate them by ``theta`` (in place).
+    """Shift the fluke nodes with the hinge and rotate them (in place).
 
-    The hinge is the mean of ``hinge_nodes``; fluke node m is
-    rest + (hinge - hinge0) + (R(bend[m] theta) - I) arm0[m], written so that the flat pose is
-    exactly the rest, and its velocity is the hinge's plus bend[m] theta_dot times (-z', 0, x')
-    of the rotated arm (R as in :func:`rotation_y`). ``bend`` is 1 on every node for the
-    paper's hinged gate, and rises from 0 to 1 across the joint for a bending one
-    (:func:`joint_bend`).
+    The hinge is the mean of ``hinge_nodes``; fluke node m turns by
+    ``phi_m = alpha + bend[m] (theta - alpha)`` and is placed at
+    rest + (hinge - hinge0) + (R(phi_m) - I) arm0[m], written so that the flat pose is exactly
+    the rest; its velocity is the hinge's plus phi_m' times (-z', 0, x') of the rotated arm (R
+    as in :func:`rotation_y`). ``alpha`` is the body's own pitch at the tail base: the
+    least-squares slope of the hinge nodes' vertical displacement against their rest x. With
+    ``bend`` 1 on every node (the paper's hinged gate) every fluke node turns by the table's
+    ``theta``; with a bending joint (:func:`joint_bend`) the fluke root turns with the body and
+    the pitch reaches ``theta`` behind the joint, so the surface has no crease at the tail base.
     """
     hx = hy = hz = vx = vy = vz = 0.0
+    mx = 0.0
     for k in hinge_nodes:
         hx += X[k, 0]
         hy += X[k, 1]
@@ -256,13 +261,26 @@ def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_
         vx += V[k, 0]
         vy += V[k, 1]
         vz += V[k, 2]
+        mx += rest[k, 0]
     n = hinge_nodes.shape[0]
     sx, sy, sz = hx / n - hinge0[0], hy / n - hinge0[1], hz / n - hinge0[2]
     vx, vy, vz = vx / n, vy / n, vz / n
+    mx /= n
+    # the body's pitch at the tail base and its rate: slope of (displacement, velocity) in z
+    sxx = sxz = sxv = 0.0
+    for k in hinge_nodes:
+        ex = rest[k, 0] - mx
+        sxx += ex * ex
+        sxz += ex * (X[k, 2] - rest[k, 2])
+        sxv += ex * V[k, 2]
+    slope = sxz / sxx
+    alpha = np.arctan(slope)
+    alpha_dot = (sxv / sxx) / (1.0 + slope * slope)
     for m in range(fluke_nodes.shape[0]):
         i = fluke_nodes[m]
-        c, s = np.cos(bend[m] * theta), np.sin(bend[m] * theta)
-        rate = bend[m] * theta_dot
+        phi = alpha + bend[m] * (theta - alpha)
+        rate = alpha_dot + bend[m] * (theta_dot - alpha_dot)
+        c, s = np.cos(phi), np.sin(phi)
         ax, az = arm0[m, 0], arm0[m, 2]
         rx = c * ax - s * az
         rz = s * ax + c * az
@@ -275,10 +293,11 @@ def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_
 
 
 def joint_bend(s: np.ndarray, tail_base_s: float, joint: float) -> np.ndarray:
-    """The share of the fluke angle each fluke node turns by: 1 everywhere for the paper's
-    hinge (``joint`` = 0); for a bending joint of length ``joint`` (fraction of L) behind the
-    tail base, the quintic :func:`smootherstep` of (s - tail_base) / joint, so the pitch grows
-    from 0 at the tail base to the table's angle with no kink in the surface."""
+    """How far each fluke node turns from the body's own pitch at the tail base toward the
+    table's angle (:func:`place_gate`): 1 everywhere for the paper's hinge (``joint`` = 0); for
+    a bending joint of length ``joint`` (fraction of L) behind the tail base, the quintic
+    :func:`smootherstep` of (s - tail_base) / joint: 0 at the tail base (the fluke root turns
+    with the body, no crease), 1 behind the joint."""
     if joint <= 0:
         return np.ones_like(s)
     u = np.clip((s - tail_base_s) / joint, 0.0, 1.0)
