@@ -310,8 +310,10 @@ def _bin(first, last, dims):
 def _closest(px, py, pz, c):
     """Weights and distance of the point of triangle c (3, 3) closest to p.
 
-    The scalar twin of :func:`closest_point_weights` followed by the distance of
-    :func:`_exact`: the same operations in the same order, so the same bits.
+    The scalar twin of :func:`closest_point_weights` followed by the distance
+    ``|p - (wa a + wb b + wc c)|`` summed left to right, as the numpy search before it did: the
+    same operations in the same order, so the same bits (numba contracts no multiply-add
+    without fastmath; tests/test_mapping.py checks the bits against the numpy formulas).
     """
     ax, ay, az = c[0, 0], c[0, 1], c[0, 2]
     bx, by, bz = c[1, 0], c[1, 1], c[1, 2]
