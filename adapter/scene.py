@@ -101,9 +101,10 @@ class Stroke:
     fluke_angle_scale: float = field(default=1.0, metadata={"check": _non_negative})
     #: the fluke angle ramps in from flat over this fraction of the first cycle ("negate")
     fluke_ramp: float = field(default=0.25, metadata={"check": lambda v: 0 <= v <= 4})
-    #: length (fraction of L) behind the tail base over which the fluke's pitch grows from 0
-    #: to the table's angle: a bending joint; 0 is the paper's hinge (a crease at the tail base)
-    fluke_joint: float = field(default=0.03, metadata={"check": lambda v: 0 <= v <= 0.1})
+    #: length (fraction of L) behind the tail base over which the fluke goes over from the
+    #: body's own motion to the gate's rigid turn: a bending joint; 0 is the paper's hinge
+    #: (a crease at the tail base; docs/stroke.md)
+    fluke_joint: float = field(default=0.0, metadata={"check": lambda v: 0 <= v <= 0.1})
     #: how the stroke turns: "smooth" (continuous wall velocity; the default for coupled
     #: runs) or "negate" (the paper: every velocity negated at the top and bottom)
     reversal: str = field(default="smooth", metadata={"choices": ("smooth", "negate")})

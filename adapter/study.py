@@ -4,9 +4,12 @@ the self-propelled speed.
 For one scene it runs, each case in its own folder under ``<study>/``:
 
 - ``mesh-1/case``, ``mesh-2/case``, ``mesh-3/case``: the gliding + swimming pair
-  (:func:`adapter.swimrun.run_swim_and_glide`) on three systematically refined meshes. Mesh 2
-  is the scene's own; mesh 1 has every cell ``ratio`` times smaller, mesh 3 ``ratio`` times
-  larger: the blockMesh background cell (``case.background_cell``, or ``background_cell_m``)
+  (:func:`adapter.swimrun.run_swim_and_glide`) on three systematically refined meshes, each
+  ``ratio`` times coarser than the one before. ``finest = "scene"`` (the default): mesh 1 is
+  the scene's own mesh; ``"refined"``: mesh 2 is, and mesh 1 has every cell ``ratio`` times
+  smaller (with the paper's hinged fluke gate the surface folds at the hinge within one
+  network edge, which a mesh finer than the default cannot follow: docs/stroke.md). The
+  blockMesh background cell (``case.background_cell``, or ``background_cell_m``)
   scales, the snappyHexMesh levels stay, so every castellated cell scales with it. The prism
   layers: the first layer keeps its thickness (the first cell centre's y+ stays where the
   wall function holds it), the stack's total thickness scales with the cells
@@ -102,12 +105,18 @@ def layer_rule(first: float, layers: int, expansion: float, scale: float) -> tup
                        f"1-3 is {target:.4g} m thick; choose another refinement ratio")
 
 
-def mesh_scene(scene, k: int, ratio: float):
-    """The scene of mesh ``k`` (1 finest, 2 the scene's, 3 coarsest): every cell ``ratio`` ** (k
-    - 2) times the scene's (background cell, prism stack), the first layer and the snappy
-    levels kept."""
+FINEST = ("scene", "refined")
+
+
+def mesh_scene(scene, k: int, ratio: float, finest: str = "scene"):
+    """The scene of mesh ``k`` (1 finest, 3 coarsest): every cell ``ratio`` ** (k - 1) times the
+    scene's (``finest = "scene"``) or ``ratio`` ** (k - 2) (``"refined"``: mesh 2 is the
+    scene's) in the background cell and the prism stack, the first layer and the snappy levels
+    kept."""
+    if finest not in FINEST:
+        raise AdapterError(f"finest = {finest!r}: choose one of {', '.join(FINEST)}")
     c = scene.case
-    scale = ratio ** (k - 2)
+    scale = ratio ** (k - (1 if finest == "scene" else 2))
     changes = {}
     if c.background_cell_m > 0:
         changes["background_cell_m"] = c.background_cell_m * scale
@@ -133,7 +142,7 @@ def _speed_name(f: float) -> str:
 
 
 def plan_cases(scene, surface, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS,
-               parts=PARTS) -> list:
+               parts=PARTS, finest: str = "scene") -> list:
     """The study's cases in the order they run: dicts with ``name`` (folder relative to the
     study), ``scene``, ``part``, ``mesh`` (1-3), ``mesh_from`` (a case whose mesh it reuses, or
     None), ``dt_s``, ``speed_factor``."""
@@ -142,7 +151,8 @@ def plan_cases(scene, surface, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEE
                            "(Celik et al. 2008)")
     dt = study_dt(scene, surface)
     cases = []
-    meshes = {k: mesh_scene(scene, k, ratio).replace(case={"dt_s": dt}) for k in (1, 2, 3)}
+    meshes = {k: mesh_scene(scene, k, ratio, finest).replace(case={"dt_s": dt})
+              for k in (1, 2, 3)}
     if "meshes" in parts:
         for k in (3, 2, 1):
             cases.append({"name": f"mesh-{k}/case", "scene": meshes[k], "part": "meshes",
@@ -175,8 +185,8 @@ def _check_plan(out: Path, plan: dict) -> None:
     path = out / PLAN
     if path.is_file():
         old = json.loads(path.read_text())
-        differs = [k for k in ("scene_file", "preset", "ratio", "speeds")
-                   if old.get(k) != plan.get(k)]
+        differs = [k for k in ("scene_file", "preset", "ratio", "speeds", "finest")
+                   if old.get(k, "refined" if k == "finest" else None) != plan.get(k)]
         if differs:
             was = ", ".join(f"{k}: {old.get(k)!r}" for k in differs)
             asked = ", ".join(f"{k}: {plan.get(k)!r}" for k in differs)
@@ -220,7 +230,7 @@ def case_done(case: Path) -> bool:
 
 def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS,
               parts=PARTS, ranks=None, scene_file=None, progress: bool = True, runner=None,
-              mesher=None, surface=None, log=print) -> dict:
+              mesher=None, surface=None, log=print, finest: str = "scene") -> dict:
     """Prepare, mesh and run every case of the study (skipping finished ones), then analyse.
 
     ``runner(case, record, tolerance, ranks, progress) -> summary`` runs one pair (default
@@ -239,9 +249,9 @@ def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS
         surface = build_surface(scene)
     speeds = sorted(float(f) for f in speeds)
     plan = {"scene_file": str(Path(scene_file).resolve()) if scene_file else None,
-            "preset": scene.name, "ratio": ratio, "speeds": speeds}
+            "preset": scene.name, "ratio": ratio, "speeds": speeds, "finest": finest}
     _check_plan(out, plan)
-    cases = plan_cases(scene, surface, ratio, speeds, parts)
+    cases = plan_cases(scene, surface, ratio, speeds, parts, finest)
     failed = {}
     t0 = time.perf_counter()
     for i, c in enumerate(cases, 1):
@@ -273,6 +283,7 @@ def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS
             failed[c["name"]] = str(exc)
             log(f"{head}: failed: {exc}")
     study = analyse(out, scene, cases, ratio, failed)
+    study["finest"] = finest
     study["wall_s_this_run"] = round(time.perf_counter() - t0, 1)
     write_json(out / RESULT, _finite(study))
     try:
@@ -582,6 +593,9 @@ def register(subparsers) -> None:
     p.add_argument("--out", help="study folder (default: runs/study-<preset>)")
     p.add_argument("--ratio", type=float, default=DEFAULT_RATIO,
                    help=f"refinement ratio between the meshes, >= 1.3 (default {DEFAULT_RATIO})")
+    p.add_argument("--finest", choices=FINEST, default="scene",
+                   help="which mesh is the finest: the scene's own (default; meshes 2 and 3 "
+                   "coarser) or one refined beyond it (mesh 2 the scene's)")
     p.add_argument("--speeds", default=",".join(f"{f:g}" for f in DEFAULT_SPEEDS),
                    help="flow speeds as multiples of the scene's, comma-separated (default "
                    "%(default)s)")
@@ -607,6 +621,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
         raise AdapterError("--speeds: give at least three speeds")
     out = Path(args.out or Path("runs") / f"study-{scene.name}")
     study = run_study(scene, out, ratio=args.ratio, speeds=speeds, parts=parts,
+                      finest=args.finest,
                       ranks=args.ranks, scene_file=args.scene)
     print(f"\n{out}: the flow study")
     print(format_study(study))

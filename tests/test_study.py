@@ -60,23 +60,28 @@ def _smoke_with_layers(smoke_scene):
                                      "writes_per_cycle": 4})
 
 
-def test_three_meshes_scale_every_cell_by_the_ratio(tmp_path, smoke_scene, smoke_surface):
-    """Background cell and the prism stack scale by r (first layer kept), dt is the same on
-    all three; the dictionaries prepare_case writes carry it."""
+@pytest.mark.parametrize("finest, own", [("scene", 1), ("refined", 2)])
+def test_three_meshes_scale_every_cell_by_the_ratio(tmp_path, smoke_scene, smoke_surface,
+                                                    finest, own):
+    """Background cell and the prism stack scale by r (first layer kept), mesh ``own`` is the
+    scene's, dt is the same on all three; the dictionaries prepare_case writes carry it."""
     scene = _smoke_with_layers(smoke_scene)
     r = 1.4
-    cases = {c["name"]: c for c in S.plan_cases(scene, smoke_surface, r, (0.9, 1.0, 1.1))}
+    cases = {c["name"]: c for c in S.plan_cases(scene, smoke_surface, r, (0.9, 1.0, 1.1),
+                                                 finest=finest)}
     assert list(cases) == ["mesh-3/case", "mesh-2/case", "mesh-1/case", "mesh-2/dt-half",
                            "mesh-2/speed-0.9", "mesh-2/speed-1.1"]
     stack0 = S.stack_thickness(0.05, 3, 1.5)
     params = {}
     for k in (1, 2, 3):
         sc = cases[f"mesh-{k}/case"]["scene"]
-        assert sc.case.background_cell == pytest.approx(scene.case.background_cell * r ** (k - 2))
+        assert sc.case.background_cell == pytest.approx(scene.case.background_cell
+                                                        * r ** (k - own))
         assert sc.case.first_layer_m == 0.05
         assert S.stack_thickness(sc.case.first_layer_m, sc.case.layers,
-                                 sc.case.layer_expansion) == pytest.approx(stack0 * r ** (k - 2),
-                                                                           rel=1e-5)
+                                 sc.case.layer_expansion) == pytest.approx(
+                                                                     stack0 * r ** (k - own),
+                                                                     rel=1e-5)
         assert sc.case.refinement == scene.case.refinement
         params[k] = C.prepare_case(sc, tmp_path / f"m{k}", surface=smoke_surface)
         snappy = C.parsed_dict(tmp_path / f"m{k}" / "system" / "snappyHexMeshDict")
@@ -89,9 +94,15 @@ def test_three_meshes_scale_every_cell_by_the_ratio(tmp_path, smoke_scene, smoke
     half = C.case_parameters(cases["mesh-2/dt-half"]["scene"], smoke_surface.points.min(axis=0),
                              smoke_surface.points.max(axis=0), length=smoke_surface.length)
     assert half.delta_t == params[2].delta_t / 2
-    assert params[1].delta_t != C.case_parameters(
-        S.mesh_scene(scene, 1, r), smoke_surface.points.min(axis=0),
-        smoke_surface.points.max(axis=0), length=smoke_surface.length).delta_t
+    # the step is the scene's own mesh's automatic one, not the finest mesh's
+    own_dt = C.case_parameters(scene, smoke_surface.points.min(axis=0),
+                               smoke_surface.points.max(axis=0),
+                               length=smoke_surface.length).delta_t
+    assert params[1].delta_t == own_dt
+    if finest == "refined":
+        assert params[1].delta_t != C.case_parameters(
+            S.mesh_scene(scene, 1, r, finest), smoke_surface.points.min(axis=0),
+            smoke_surface.points.max(axis=0), length=smoke_surface.length).delta_t
     assert cases["mesh-2/speed-1.1"]["scene"].flow.speed_m_s == pytest.approx(
         1.1 * scene.flow.speed_m_s)
     with pytest.raises(AdapterError, match="at least 1.3"):
