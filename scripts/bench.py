@@ -1,7 +1,7 @@
 """`make bench`: steps per second of one spring-mass step on the paper-scale whale.
 
 Three implementations of the same forward-Euler step on the same network, measured in the
-same run: the project's (adapter.integrators, a numba kernel fused with the update and the
+same run: the project's (adapter.motion.integrators, a numba kernel fused with the update and the
 check), a naive numpy baseline (SpringNetwork.forces_numpy, sparse products), and an
 independent compiled kernel: the same equations in C, compiled here with gcc -O3 and called
 through ctypes. Also the project's whole animator step (integrator + fluke gate), and the
@@ -24,8 +24,8 @@ import psutil
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from adapter.animator import Animator  # noqa: E402
-from adapter.integrators import make_integrator  # noqa: E402
+from adapter.motion.animator import Animator  # noqa: E402
+from adapter.motion.integrators import make_integrator  # noqa: E402
 from adapter.scene import load_scene  # noqa: E402
 
 C_SOURCE = r"""

@@ -4,8 +4,8 @@ depending on time alone."""
 import numpy as np
 import pytest
 
-from adapter.animator import Animator
-from adapter.gait import load_fluke_table, rotation_y
+from adapter.motion.animator import Animator
+from adapter.motion.gait import load_fluke_table, rotation_y
 
 
 def test_displacement_depends_on_time_alone(smoke_scene, smoke_surface):

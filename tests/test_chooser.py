@@ -5,10 +5,10 @@ and its key-point error measured against a converged run (RK4 at a tiny step).""
 import numpy as np
 import pytest
 
-from adapter import chooser
-from adapter import numerics as nm
-from adapter.dryrun import KEYPOINTS, keypoint_nodes
-from adapter.integrators import make_integrator
+from adapter.motion.dryrun import KEYPOINTS, keypoint_nodes
+from adapter.motion.integrators import make_integrator
+from adapter.studies import chooser
+from adapter.studies import numerics as nm
 
 NODES = 600
 METHODS = ("forward_euler", "symplectic_euler", "verlet", "rk4")

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
+from adapter.body.geometry import build_surface
+from adapter.coupling.mapping import PatchMap, closest_point_weights
 from adapter.errors import GeometryError
-from adapter.geometry import build_surface
-from adapter.mapping import PatchMap, closest_point_weights
 from adapter.scene import load_scene
 
 

@@ -4,10 +4,10 @@ orders, a run past the bound, the chooser."""
 import numpy as np
 import pytest
 
-from adapter import numerics as nm
-from adapter.animator import Animator
 from adapter.errors import UnstableError
-from adapter.stability import EXPLICIT, predict
+from adapter.motion.animator import Animator
+from adapter.motion.stability import EXPLICIT, predict
+from adapter.studies import numerics as nm
 
 NODES = nm.SMALL_NODES
 
@@ -75,7 +75,7 @@ def test_a_run_past_the_bound_stops_before_handing_on_nan(small, predicted):
 
 
 def test_the_chooser_meets_its_stated_tolerance(smoke_scene):
-    from adapter import chooser
+    from adapter.studies import chooser
 
     # the paper's stroke, for which the choice below was measured (the smooth stroke's
     # tether makes the coarse whales differ more: it picks 2,400 nodes)

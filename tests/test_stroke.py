@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from adapter import dryrun
-from adapter.animator import Animator
-from adapter.gait import load_fluke_table
+from adapter.motion import dryrun
+from adapter.motion.animator import Animator
+from adapter.motion.gait import load_fluke_table
 
 
 def _quintic(x):

@@ -12,7 +12,7 @@ import numpy as np
 import scipy.sparse
 from scipy.spatial import cKDTree
 
-from .errors import GeometryError
+from adapter.errors import GeometryError
 
 #: default rejection threshold: a patch point farther than this fraction of L from the surface
 DEFAULT_TOLERANCE = 0.05

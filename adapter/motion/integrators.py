@@ -25,7 +25,7 @@ Backward Euler: with J_x = dF/dX and J_v = dF/dV at (X, V),
 ``(I - dt J_v - dt^2 J_x) dV = dt (F + dt J_x V)``, ``V' = V + dV``, ``X' = X + dt V'``: one
 sparse LU solve per step (scipy.sparse.linalg.splu; the paper's force is not symmetric).
 
-When the integrator is given the :class:`~adapter.springs.SpringNetwork` (``network=``) and
+When the integrator is given the :class:`~adapter.body.springs.SpringNetwork` (``network=``) and
 its force is that network's, each explicit step runs as one compiled pass (numba): the force
 kernel fused with the update and the check, no temporary arrays beyond the two returned.
 """
@@ -37,8 +37,8 @@ from typing import Callable
 import numba
 import numpy as np
 
-from .errors import UnstableError
-from .springs import _edge_forces
+from adapter.body.springs import _edge_forces
+from adapter.errors import UnstableError
 
 Force = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
@@ -169,7 +169,7 @@ class Integrator:
         unstable; ``None`` checks only for NaN and infinity.
     reference : (N, 3) rest positions used by the runaway check.
     stable_dt : the largest stable step (s) predicted for this method, named in the error.
-    network : the :class:`~adapter.springs.SpringNetwork` whose ``forces`` is ``force``;
+    network : the :class:`~adapter.body.springs.SpringNetwork` whose ``forces`` is ``force``;
         enables the compiled steps, and is required by ``backward_euler`` (its Jacobian).
     reuse_buffers : let the compiled steps write into three array sets in turn instead of new
         arrays (a returned state is overwritten three steps later).
@@ -353,7 +353,7 @@ class BackwardEuler(Integrator):
         if self.network is None:
             raise ValueError("backward_euler needs the spring network for its Jacobian: "
                              "make_integrator(..., network=net)")
-        from .stability import damping_matrix
+        from adapter.motion.stability import damping_matrix
 
         self._c = damping_matrix(self.network)  # C = -dF/dV, constant
         self._eye = None
@@ -362,7 +362,7 @@ class BackwardEuler(Integrator):
         import scipy.sparse as sp
         from scipy.sparse.linalg import splu
 
-        from .stability import force_jacobian
+        from adapter.motion.stability import force_jacobian
 
         jx = force_jacobian(self.network, X)
         n = jx.shape[0]

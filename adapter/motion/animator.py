@@ -15,22 +15,22 @@ import math
 
 import numpy as np
 
-from .errors import GeometryError, SceneError, UnstableError
-from .gait import (
+from adapter.body.geometry import build_surface
+from adapter.body.springs import network_from_edges, region_constants
+from adapter.errors import GeometryError, SceneError, UnstableError
+from adapter.motion.gait import (
     QUARTER_EVENTS,
     SmoothStroke,
-    load_fluke_table,
     joint_bend,
+    load_fluke_table,
     place_gate,
     push_and_tether,
     ramp,
     smootherstep,
     velocity_profile,
 )
-from .geometry import build_surface
-from .integrators import make_integrator
-from .springs import network_from_edges, region_constants
-from .stability import stable_dt
+from adapter.motion.integrators import make_integrator
+from adapter.motion.stability import stable_dt
 
 #: half-width (fraction of L) of the band of body nodes just ahead of the tail base whose
 #: mean motion carries the fluke hinge
@@ -43,7 +43,7 @@ class Animator:
     Parameters
     ----------
     scene : :class:`~adapter.scene.Scene`.
-    surface : the :class:`~adapter.geometry.WhaleSurface` to animate (built from the scene if
+    surface : the :class:`~adapter.body.geometry.WhaleSurface` to animate (built from the scene if
         omitted).
     """
 

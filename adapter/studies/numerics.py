@@ -3,7 +3,7 @@
 ``whale-adapter numerics --out DIR [--quick]`` (``make chart``) writes into DIR:
 
 - ``stability.csv`` / ``stability.png``: the largest stable step against the damping mu, per
-  method, predicted (:mod:`adapter.stability`) and measured on the whale by bisection, with
+  method, predicted (:mod:`adapter.motion.stability`) and measured on the whale by bisection, with
   the paper's criterion dt |F_i| <= 1;
 - ``work_precision.csv`` / ``work_precision.png``: surface error against wall time over one
   half-stroke, per method and step, against a converged RK4 reference;
@@ -30,9 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import UnstableError
-from .integrators import METHODS, make_integrator
-from .stability import EXPLICIT, paper_criterion_dt, predict, stiffness_matrix
+from adapter.errors import UnstableError
+from adapter.motion.integrators import METHODS, make_integrator
+from adapter.motion.stability import EXPLICIT, paper_criterion_dt, predict, stiffness_matrix
 
 #: theory's order per method
 THEORY_ORDER = {"forward_euler": 1, "symplectic_euler": 1, "verlet": 2, "rk4": 4,
@@ -177,7 +177,7 @@ def paper_criterion(a, dt: float, n_steps: int = 2000, every: int = 10) -> float
 
 
 def _animator(scene, nodes=None, **springs):
-    from .animator import Animator
+    from adapter.motion.animator import Animator
 
     changes = {}
     if nodes:
@@ -284,7 +284,7 @@ def resolution_study(scene, nodes_list, reference_nodes, method="forward_euler",
                      log=print) -> list[dict]:
     """Error of the key points over one half-stroke against node count (fixed method, the
     scene's step rule), measured against the ``reference_nodes`` whale."""
-    from .dryrun import KEYPOINTS, keypoint_nodes
+    from adapter.motion.dryrun import KEYPOINTS, keypoint_nodes
 
     def trace(nodes):
         a = _animator(scene, nodes)
@@ -371,7 +371,7 @@ def _plot_xy(groups, xkey, ykey, xlabel, ylabel, title, path):
 
 def run(scene, out: Path, quick: bool = False, log=print) -> dict:
     """The whole study into ``out``; returns the summary."""
-    from .scene import load_scene
+    from adapter.scene import load_scene
 
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
@@ -459,13 +459,13 @@ def register(subparsers) -> None:
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--quick", action="store_true", help="fewer points, the smoke whale")
     p.set_defaults(func=_cmd_numerics)
-    from .chooser import register as register_choose
+    from adapter.studies.chooser import register as register_choose
 
     register_choose(subparsers)
 
 
 def _cmd_numerics(args: argparse.Namespace) -> int:
-    from .scene import load_scene
+    from adapter.scene import load_scene
 
     scene = load_scene(args.scene, preset=args.preset)
     summary = run(scene, Path(args.out), quick=args.quick)

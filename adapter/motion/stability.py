@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .springs import SpringNetwork
+from adapter.body.springs import SpringNetwork
 
 #: stability limit of omega * dt for an undamped oscillator, per method (for the docs)
 OMEGA_DT_LIMIT = {"symplectic_euler": 2.0, "verlet": 2.0, "rk4": 2.828,
@@ -142,7 +142,7 @@ def mode_parameters(lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _oscillator_step(method: str, w2, c, h):
     """The 2x2 amplification matrix of one step of ``method`` on x'' = -w2 x - c x'."""
-    from .integrators import METHODS
+    from adapter.motion.integrators import METHODS
 
     def force(x, v):
         return -w2 * x - c * v

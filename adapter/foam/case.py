@@ -33,11 +33,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import resources
-from .errors import AdapterError, SolverRunError
-from .yplus import time_dirs
+from adapter import resources
+from adapter.errors import AdapterError, SolverRunError
+from adapter.foam.yplus import time_dirs
 
-_REPO = Path(__file__).resolve().parent.parent
+_REPO = resources.REPO
 #: the template case (foam_case/ of the repository, adapter/_foam_case in a wheel)
 TEMPLATE_DIR = resources.TEMPLATE_DIR
 #: the boundary condition library built by scripts/build_plugin.sh (resources.build_dir())
@@ -248,7 +248,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         step-server boundary condition, and the plugin library is not loaded (a flow-only case,
         no server needed).
     scene_file : the scene's TOML file, recorded so that the step-server loads the same scene.
-    surface : a :class:`~adapter.geometry.WhaleSurface`; None builds the scene's.
+    surface : a :class:`~adapter.body.geometry.WhaleSurface`; None builds the scene's.
 
     Returns the :class:`CaseParameters` written; they are also recorded in
     ``<case>/adapter-case.json``.
@@ -263,7 +263,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         raise AdapterError(f"the template case {TEMPLATE_DIR} is missing; reinstall the "
                            "package (pip install . or pip install -e . from the repository)")
     if surface is None:
-        from .geometry import build_surface
+        from adapter.body.geometry import build_surface
 
         surface = build_surface(scene)
     _check_length(scene, surface)
@@ -279,7 +279,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
                              length=surface.length)
     _write_dictionaries(case, scene, params, static_whale)
-    from .loads import body_dimensions
+    from adapter.foam.loads import body_dimensions
 
     tail_base_s = float(surface.s[surface.landmarks["tail_base"]])
     st = scene.stroke
@@ -535,7 +535,7 @@ def layer_record(case_dir) -> dict:
     (``faces``, ``faces_with_layers``, ``face_coverage``, ``mean_layers``, ``thickness_m``,
     ``thickness_pct``) and the area-weighted coverage from the ``nSurfaceLayers`` field
     (``area_with_layers``, ``area_full_thickness``); empty when the case has no layers."""
-    from .yplus import layer_coverage, parse_layer_report
+    from adapter.foam.yplus import layer_coverage, parse_layer_report
 
     case = Path(case_dir)
     log = case / "log.snappyHexMesh"
@@ -783,7 +783,7 @@ def _start_server(case: Path, record: dict, timeout: float = 60.0, host: str | N
                   port: int | None = None, token: str | None = None) -> subprocess.Popen:
     """Start the step-server; return once it has published its endpoint file. TCP when a host
     or a port is given. The token goes through the environment, never the command line."""
-    from .server import ENDPOINT_NAME, TOKEN_ENV
+    from adapter.coupling.server import ENDPOINT_NAME, TOKEN_ENV
 
     endpoint = case / ENDPOINT_NAME
     log = open(case / "log.server", "w")  # noqa: SIM115 - closed by _stop_server
@@ -893,7 +893,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     end_time = float(control["endTime"])
     if start_time >= end_time - 0.5 * float(control["deltaT"]):
         return _finished(case, record, ranks, from_ranks, t_start)
-    from .server import TOKEN_ENV
+    from adapter.coupling.server import TOKEN_ENV
 
     token = token or os.environ.get(TOKEN_ENV) or None
     env = foam_env()
@@ -1124,7 +1124,7 @@ def register(subparsers) -> None:
 
 
 def _cmd_run_case(args: argparse.Namespace) -> int:
-    from .scene import load_scene
+    from adapter.scene import load_scene
 
     if args.ranks is not None and args.ranks < 1:
         raise AdapterError(f"--np: expected at least 1 rank, got {args.ranks}")
@@ -1156,7 +1156,7 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
             return 0
     record = read_record(case)
     if record.get("gliding", False) and not record.get("static_whale"):
-        from .swimrun import COST_ROWS, run_swim_and_glide
+        from adapter.foam.swimrun import COST_ROWS, run_swim_and_glide
 
         summary = run_swim_and_glide(case, record, float(record["periodic_tolerance"]),
                                      ranks=args.ranks)
@@ -1164,7 +1164,7 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
         print(format_summary(summary, COST_ROWS))
         print(f"(all figures: {case / SUMMARY}; picture: {case / 'forces.png'})")
         return 0
-    from .server import resolve_token
+    from adapter.coupling.server import resolve_token
 
     token = resolve_token(args.token_file)
     summary = run_case(case, ranks=args.ranks, host=args.host, port=args.port, token=token)

@@ -29,8 +29,8 @@ import math
 
 import numpy as np
 
-from .integrators import METHODS
-from .stability import stable_dt
+from adapter.motion.integrators import METHODS
+from adapter.motion.stability import stable_dt
 
 CANDIDATE_NODES = (600, 1200, 2400, 5000, 11272)
 #: relative cost of one step, in force evaluations (backward Euler: a sparse LU, ~10)
@@ -40,8 +40,8 @@ STEP_COST = {"forward_euler": 1, "symplectic_euler": 1, "verlet": 2, "rk4": 4,
 
 def _trace(scene, nodes, method=None, dt=None):
     """Key-point displacements (8 samples over one half-stroke, (8, 4, 3)) of a whale."""
-    from .dryrun import KEYPOINTS, keypoint_nodes
-    from .numerics import _animator, set_step
+    from adapter.motion.dryrun import KEYPOINTS, keypoint_nodes
+    from adapter.studies.numerics import _animator, set_step
 
     a = _animator(scene, nodes)
     set_step(a, method or "forward_euler", dt or a.integrator.dt)
@@ -90,7 +90,7 @@ def choose(scene, tolerance_m: float, max_dt: float | None = None, fraction: flo
         why.append(f"{nodes} nodes: set by the user")
     # 2. method and step
     options = []
-    from .numerics import _animator
+    from adapter.studies.numerics import _animator
 
     a = _animator(scene, nodes)
     for m in ([method] if method else (methods or list(METHODS))):
@@ -142,7 +142,7 @@ def register(subparsers) -> None:
 
 
 def _cmd_choose(args: argparse.Namespace) -> int:
-    from .scene import load_scene
+    from adapter.scene import load_scene
 
     if args.flow_study:
         return _choose_flow_mesh(args)
@@ -163,8 +163,8 @@ def _choose_flow_mesh(args: argparse.Namespace) -> int:
     """``choose --flow-study DIR --tolerance F``: the flow mesh for a tolerance."""
     from pathlib import Path
 
-    from .errors import AdapterError
-    from .study import RESULT, choose_flow_mesh
+    from adapter.errors import AdapterError
+    from adapter.studies.study import RESULT, choose_flow_mesh
 
     if not args.tolerance or args.tolerance <= 0:
         raise AdapterError("choose --flow-study: give --tolerance, a fraction (0.05 = 5 %)")
