@@ -3,7 +3,7 @@
 Each sub-command lives in the module of its idea and registers itself here through a
 ``register(subparsers)`` function: dry-run and calibrate (:mod:`adapter.motion.dryrun`,
 :mod:`adapter.studies.calibration`), geometry (:mod:`adapter.body.geometry`), serve
-(:mod:`adapter.coupling.server`), run-case (:mod:`adapter.foam.case`),
+(:mod:`adapter.coupling.server`), run-case (:mod:`adapter.foam.command`),
 study (:mod:`adapter.studies.study`).
 """
 
@@ -23,9 +23,10 @@ _COMMAND_MODULES = (
     "adapter.motion.dryrun",
     "adapter.studies.calibration",
     "adapter.coupling.server",
-    "adapter.foam.case",
+    "adapter.foam.command",
     "adapter.studies.study",
     "adapter.studies.numerics",
+    "adapter.studies.chooser",
     "adapter.reports.paraview_report",
 )
 
