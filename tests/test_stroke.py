@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from adapter.body.geometry import build_surface
 from adapter.motion import dryrun
 from adapter.motion.animator import Animator
 from adapter.motion.gait import load_fluke_table
@@ -140,3 +141,60 @@ def test_paper_stroke_fluke_velocity_is_the_derivative_of_its_position(paper_ani
         checked += 1
         assert np.abs(v[a.fluke]).max() > 0.05  # the fluke is moving: not a vacuous check
     assert checked == 7
+
+
+def _largest_kink_along_the_back(a, times, band=0.06):
+    """Largest change (deg) over ``times`` of the turning angle between consecutive segments
+    of the dorsal midline (the nodes on y = 0 above the axis) within ``band`` (fraction of L)
+    of the tail base: a crease shows as one large turn, a bend as several small ones."""
+    r, s = a.rest, a.surface.s
+    line = np.flatnonzero((np.abs(r[:, 1]) < 1e-9) & (r[:, 2] > 0)
+                          & (np.abs(s - a.tail_base_s) < band))
+    line = line[np.argsort(r[line, 0])]
+
+    def turns(x):
+        seg = np.diff(x[line][:, [0, 2]], axis=0)
+        ang = np.arctan2(seg[:, 1], seg[:, 0])
+        return np.degrees(np.diff(ang))
+
+    rest = turns(r)
+    return max(np.abs(turns(a.positions(t)) - rest).max() for t in times)
+
+
+def test_bending_joint_removes_the_crease_at_the_tail_base(smoke_scene):
+    """The paper's hinge folds the surface at the tail base: the whole difference between the
+    table's pitch and the body's own is one turn of the back's midline. The joint (the default)
+    spreads it over the fluke root, starting from the body's own pitch (a 4,000-node whale,
+    whose edges are short enough to resolve the joint's 0.45 m)."""
+    scene = smoke_scene.replace(geometry={"nodes": 4000})
+    surface = build_surface(scene)
+    hinge = Animator(scene.replace(stroke={"fluke_joint": 0.0}), surface)
+    joint = Animator(scene, surface)
+    assert scene.stroke.fluke_joint == 0.03
+    times = np.linspace(hinge.period, 2 * hinge.period, 33)
+    crease, bend = _largest_kink_along_the_back(hinge, times), _largest_kink_along_the_back(
+        joint, times)
+    assert crease > 20 and bend < 0.5 * crease, (crease, bend)
+    # behind the joint the blades turn by the table's angle exactly as with the hinge: the
+    # fluke tips are where the hinge puts them, to the body's small difference at the hinge
+    tips = [surface.landmarks[k] for k in ("fluke_tip_left", "fluke_tip_right")]
+    for t in times[::8]:
+        np.testing.assert_allclose(joint.displacement(t)[tips], hinge.displacement(t)[tips],
+                                   atol=0.02 * surface.length)
+
+
+def test_hinge_turns_every_fluke_node_rigidly_by_the_table_angle(smoke_scene, smoke_surface):
+    """fluke_joint = 0 is the paper's gate: every fluke node at rest + hinge shift + (R(theta)
+    - I)(rest - hinge0), with R a rotation in the x-z plane, recomputed here from the rest
+    shape and the hinge nodes' mean position."""
+    a = Animator(smoke_scene.replace(stroke={"fluke_joint": 0.0}), smoke_surface)
+    t = 1.3 * a.period
+    x = a.positions(t)
+    theta = a.fluke_angle(t)[0]
+    c, s_ = math.cos(theta), math.sin(theta)
+    rot = np.array([[c, 0, -s_], [0, 1, 0], [s_, 0, c]])
+    hinge0 = a.rest[a.hinge_nodes].mean(axis=0)
+    shift = x[a.hinge_nodes].mean(axis=0) - hinge0
+    fl = a.fluke
+    expected = a.rest[fl] + shift + (a.rest[fl] - hinge0) @ rot.T - (a.rest[fl] - hinge0)
+    np.testing.assert_allclose(x[fl], expected, atol=1e-9)

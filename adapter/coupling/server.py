@@ -48,6 +48,8 @@ SOCKET_NAME = ".whale-adapter.sock"
 PID_NAME = ".whale-adapter.pid"
 #: where the server says it listens (read by the boundary condition's master rank)
 ENDPOINT_NAME = ".whale-adapter.endpoint"
+#: the patch's map onto the whale, kept in OUTPUT_DIR between runs (reused while the patch holds)
+MAP_CACHE_NAME = "patch-map.npz"
 #: the environment variable holding the shared secret (never written into the case)
 TOKEN_ENV = "WHALE_ADAPTER_TOKEN"
 OUTPUT_DIR = "adapter"
@@ -566,9 +568,11 @@ class StepServer:
                             f"master rank to the token the server was started with")
         with self._state_lock:
             self._check_free(conn)
+        t0 = time.perf_counter()
         try:
             patch = PatchMap(hello.points, self._surface.points, self._surface.triangles,
-                             self._surface.length, self.map_tolerance)
+                             self._surface.length, self.map_tolerance,
+                             cache=self.out_dir / MAP_CACHE_NAME)
         except GeometryError as exc:
             raise WireError(ErrorCode.BAD_HELLO, f"bad HELLO: {exc}") from None
         with self._state_lock:
@@ -579,8 +583,10 @@ class StepServer:
             self._patch_points = patch.n_points
             self._max_distance = max(self._max_distance, patch.max_distance)
             conn.patch = patch
-        log.info("link %s for %d rank(s): %d patch points, max mapping distance %.3g m",
-                 conn.peer, hello.n_ranks, patch.n_points, patch.max_distance)
+        log.info("link %s for %d rank(s): %d patch points, max mapping distance %.3g m "
+                 "(map %s in %.2f s)", conn.peer, hello.n_ranks, patch.n_points,
+                 patch.max_distance, patch.cache_status or "computed",
+                 time.perf_counter() - t0)
         welcome = wire.pack_welcome(patch.n_points, patch.max_distance, self.animator.dt)
         conn.send(MessageType.WELCOME, welcome, frame.seq)
         return True

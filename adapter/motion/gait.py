@@ -26,8 +26,10 @@ The fluke (every node behind the tail base) is not part of the spring system: it
 hinged at the tail base, shifted with it and rotated by the angle of a table interpolated in
 time: piecewise linearly with ``"negate"``, by a periodic cubic spline (continuous angular
 velocity) with ``"smooth"``. With ``stroke.fluke_joint`` > 0 the gate bends instead of
-folding: the pitch grows smoothly over that length behind the tail base (:func:`joint_bend`),
-so the surface, and the mesh layers on it, are not creased at the hinge line.
+folding: the fluke root moves as the body just ahead of it does (the springs move the body
+vertically, with a slope along it), and the gate's rigid turn takes over smoothly along that
+length (:func:`joint_bend`), so the surface, and the mesh layers on it, are not creased at
+the hinge line.
 """
 
 from __future__ import annotations
@@ -239,16 +241,22 @@ def push_and_tether(X, V, rest, moving, profile, damping, dG, dD, G1, D1, k, c, 
 
 @numba.njit(cache=True, error_model="numpy")
 def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_dot, bend):
-    """Shift the fluke nodes with the hinge and rotate them by ``theta`` (in place).
+    """Place the fluke nodes (in place): shifted with the hinge, then turned.
 
-    The hinge is the mean of ``hinge_nodes``; fluke node m is
-    rest + (hinge - hinge0) + (R(bend[m] theta) - I) arm0[m], written so that the flat pose is
-    exactly the rest, and its velocity is the hinge's plus bend[m] theta_dot times (-z', 0, x')
-    of the rotated arm (R as in :func:`rotation_y`). ``bend`` is 1 on every node for the
-    paper's hinged gate, and rises from 0 to 1 across the joint for a bending one
-    (:func:`joint_bend`).
+    The hinge is the mean of ``hinge_nodes``. Fluke node m is placed at
+    ``rest + (hinge - hinge0) + (1 - b) shear + b (R(theta) - I) arm0[m]`` with b =
+    ``bend[m]``: ``(R(theta) - I) arm0`` turns it rigidly about the hinge by the table's angle
+    (R as in :func:`rotation_y`), written so that the flat pose is exactly the rest;
+    ``shear = (0, 0, g x')`` continues the body's own motion behind the tail base, where the
+    spring nodes move vertically with a slope g along the body (the least-squares slope of
+    the hinge nodes' vertical displacement against their rest x; x' the arm's x). Velocities
+    follow the same blend. With ``bend`` 1 on every node (the paper's hinged gate) every fluke
+    node turns rigidly; with a bending joint (:func:`joint_bend`) the fluke root moves as the
+    body does and the table's pitch takes over behind the joint, so the surface has no crease
+    at the tail base.
     """
     hx = hy = hz = vx = vy = vz = 0.0
+    mx = 0.0
     for k in hinge_nodes:
         hx += X[k, 0]
         hy += X[k, 1]
@@ -256,29 +264,40 @@ def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_
         vx += V[k, 0]
         vy += V[k, 1]
         vz += V[k, 2]
+        mx += rest[k, 0]
     n = hinge_nodes.shape[0]
     sx, sy, sz = hx / n - hinge0[0], hy / n - hinge0[1], hz / n - hinge0[2]
     vx, vy, vz = vx / n, vy / n, vz / n
+    mx /= n
+    # the body's vertical slope at the tail base and its rate
+    sxx = sxz = sxv = 0.0
+    for k in hinge_nodes:
+        ex = rest[k, 0] - mx
+        sxx += ex * ex
+        sxz += ex * (X[k, 2] - rest[k, 2])
+        sxv += ex * V[k, 2]
+    g, g_dot = sxz / sxx, sxv / sxx
+    c, s = np.cos(theta), np.sin(theta)
     for m in range(fluke_nodes.shape[0]):
         i = fluke_nodes[m]
-        c, s = np.cos(bend[m] * theta), np.sin(bend[m] * theta)
-        rate = bend[m] * theta_dot
+        b = bend[m]
         ax, az = arm0[m, 0], arm0[m, 2]
         rx = c * ax - s * az
         rz = s * ax + c * az
-        X[i, 0] = rest[i, 0] + sx + (rx - ax)
+        X[i, 0] = rest[i, 0] + sx + b * (rx - ax)
         X[i, 1] = rest[i, 1] + sy
-        X[i, 2] = rest[i, 2] + sz + (rz - az)
-        V[i, 0] = vx - rate * rz
+        X[i, 2] = rest[i, 2] + sz + b * (rz - az) + (1.0 - b) * g * ax
+        V[i, 0] = vx - b * theta_dot * rz
         V[i, 1] = vy
-        V[i, 2] = vz + rate * rx
+        V[i, 2] = vz + b * theta_dot * rx + (1.0 - b) * g_dot * ax
 
 
 def joint_bend(s: np.ndarray, tail_base_s: float, joint: float) -> np.ndarray:
-    """The share of the fluke angle each fluke node turns by: 1 everywhere for the paper's
-    hinge (``joint`` = 0); for a bending joint of length ``joint`` (fraction of L) behind the
-    tail base, the quintic :func:`smootherstep` of (s - tail_base) / joint, so the pitch grows
-    from 0 at the tail base to the table's angle with no kink in the surface."""
+    """How far each fluke node has gone over from the body's own motion to the gate's rigid
+    turn (:func:`place_gate`): 1 everywhere for the paper's hinge (``joint`` = 0); for a
+    bending joint of length ``joint`` (fraction of L) behind the tail base, the quintic
+    :func:`smootherstep` of (s - tail_base) / joint: 0 at the tail base (the fluke root moves
+    as the body does, no crease), 1 behind the joint."""
     if joint <= 0:
         return np.ones_like(s)
     u = np.clip((s - tail_base_s) / joint, 0.0, 1.0)
