@@ -8,7 +8,7 @@ Public surface:
 - the named exceptions of :mod:`adapter.errors`.
 """
 
-from .errors import (
+from adapter.errors import (
     AdapterError,
     GeometryError,
     ProtocolError,
@@ -16,17 +16,17 @@ from .errors import (
     SolverRunError,
     UnstableError,
 )
-from .scene import Scene, load_scene
+from adapter.scene import Scene, load_scene
 
 
 def __getattr__(name):
     # the heavy parts (numba kernels, VTK) load on first use, not on `import adapter`
     if name == "Animator":
-        from .animator import Animator
+        from adapter.motion.animator import Animator
 
         return Animator
     if name in ("build_surface", "WhaleSurface"):
-        from . import geometry
+        from adapter.body import geometry
 
         return getattr(geometry, name)
     raise AttributeError(f"module 'adapter' has no attribute {name!r}")

@@ -1,9 +1,10 @@
 """The ``whale-adapter`` command line.
 
 Each sub-command lives in the module of its idea and registers itself here through a
-``register(subparsers)`` function: dry-run and calibrate (:mod:`adapter.dryrun`,
-:mod:`adapter.calibration`), geometry (:mod:`adapter.geometry`), serve (:mod:`adapter.server`),
-run-case (:mod:`adapter.case`), study (:mod:`adapter.study`).
+``register(subparsers)`` function: dry-run and calibrate (:mod:`adapter.motion.dryrun`,
+:mod:`adapter.studies.calibration`), geometry (:mod:`adapter.body.geometry`), serve
+(:mod:`adapter.coupling.server`), run-case (:mod:`adapter.foam.command`),
+study (:mod:`adapter.studies.study`).
 """
 
 from __future__ import annotations
@@ -14,18 +15,19 @@ import signal
 import sys
 import threading
 
-from .errors import AdapterError
+from adapter.errors import AdapterError
 
 #: modules that register sub-commands; a module that is not there yet is skipped
 _COMMAND_MODULES = (
-    "adapter.geometry",
-    "adapter.dryrun",
-    "adapter.calibration",
-    "adapter.server",
-    "adapter.case",
-    "adapter.study",
-    "adapter.numerics",
-    "adapter.paraview_report",
+    "adapter.body.geometry",
+    "adapter.motion.dryrun",
+    "adapter.studies.calibration",
+    "adapter.coupling.server",
+    "adapter.foam.command",
+    "adapter.studies.study",
+    "adapter.studies.numerics",
+    "adapter.studies.chooser",
+    "adapter.reports.paraview_report",
 )
 
 

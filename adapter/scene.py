@@ -18,7 +18,7 @@ import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import SceneError
+from adapter.errors import SceneError
 
 PRESETS = ("default", "smoke", "fine")
 DATA_DIR = Path(__file__).parent / "data"

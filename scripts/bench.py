@@ -1,7 +1,7 @@
 """`make bench`: steps per second of one spring-mass step on the paper-scale whale.
 
 Three implementations of the same forward-Euler step on the same network, measured in the
-same run: the project's (adapter.integrators, a numba kernel fused with the update and the
+same run: the project's (adapter.motion.integrators, a numba kernel fused with the update and the
 check), a naive numpy baseline (SpringNetwork.forces_numpy, sparse products), and an
 independent compiled kernel: the same equations in C, compiled here with gcc -O3 and called
 through ctypes. Also the project's whole animator step (integrator + fluke gate), and the
@@ -24,8 +24,8 @@ import psutil
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from adapter.animator import Animator  # noqa: E402
-from adapter.integrators import make_integrator  # noqa: E402
+from adapter.motion.animator import Animator  # noqa: E402
+from adapter.motion.integrators import make_integrator  # noqa: E402
 from adapter.scene import load_scene  # noqa: E402
 
 C_SOURCE = r"""
@@ -85,7 +85,7 @@ def main() -> int:
     naive = make_integrator("forward_euler", net.forces_numpy, dt)
     lib = _c_kernel()
     X1, V1 = np.empty_like(X), np.empty_like(V)
-    args = (net.i, net.j, net.rest, net._k_on_i, net._k_on_j)
+    args = (net.i, net.j, net.rest, net.k_on_i, net.k_on_j)
 
     def c_step():
         lib.fe_step(net.n_nodes, len(net.i), X.ctypes.data, V.ctypes.data,
@@ -96,7 +96,7 @@ def main() -> int:
     r_naive = _rate(lambda: naive.step(X, V))
     r_c = _rate(c_step)
     a.reset()
-    r_anim = _rate(lambda: a._advance(a.step_index + 1))
+    r_anim = _rate(lambda: a.advance_to(a.step_index + 1))
     ref_X, ref_V = project.step(X, V)
     c_step()
     agree = float(max(np.abs(X1 - ref_X).max(), np.abs(V1 - ref_V).max()))
@@ -106,7 +106,7 @@ def main() -> int:
     rss0 = proc.memory_info().rss
     t0 = time.perf_counter()
     n_mem = 100_000
-    a._advance(n_mem)
+    a.advance_to(n_mem)
     wall = time.perf_counter() - t0
     rss1 = proc.memory_info().rss
     res = {

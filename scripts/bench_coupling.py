@@ -16,7 +16,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from adapter import case as C
+from adapter.foam import case as C
 from adapter.scene import load_scene
 
 _STATS = re.compile(r"^stepServer: ([0-9]+) requests, mean ([0-9.]+) us per exchange$", re.M)

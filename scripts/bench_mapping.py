@@ -18,8 +18,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from adapter.geometry import build_surface  # noqa: E402
-from adapter.mapping import PatchMap  # noqa: E402
+from adapter.body.geometry import build_surface  # noqa: E402
+from adapter.coupling.mapping import PatchMap  # noqa: E402
 from adapter.scene import load_scene  # noqa: E402
 from tests.wire_client import points_near  # noqa: E402
 

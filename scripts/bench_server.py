@@ -26,11 +26,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from adapter import protocol as wire  # noqa: E402
-from adapter.animator import Animator  # noqa: E402
-from adapter.protocol import MessageType  # noqa: E402
+from adapter.coupling import protocol as wire  # noqa: E402
+from adapter.coupling.protocol import MessageType  # noqa: E402
+from adapter.coupling.server import StepServer  # noqa: E402
+from adapter.motion.animator import Animator  # noqa: E402
 from adapter.scene import load_scene  # noqa: E402
-from adapter.server import StepServer  # noqa: E402
 
 
 def sample_points(surface, n, seed=0):

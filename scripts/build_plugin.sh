@@ -26,12 +26,12 @@ done_msg() { say "$* (total $((SECONDS - t0)) s)"; }
 # wheel (adapter/_scripts/build_plugin.sh, building into ~/.cache/whale-adapter/build, as
 # adapter/resources.py expects). WHALE_BUILD_DIR overrides the build folder in both.
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
-if [ -d "$here/../adapter/openfoam/stepServerDisplacement" ]; then
+if [ -d "$here/../adapter/foam/plugin/stepServerDisplacement" ]; then
     repo=$(cd "$here/.." && pwd)
-    plugin_src=$repo/adapter/openfoam/stepServerDisplacement
+    plugin_src=$repo/adapter/foam/plugin/stepServerDisplacement
     build=${WHALE_BUILD_DIR:-$repo/build}
 else
-    plugin_src=$(cd "$here/../openfoam/stepServerDisplacement" 2>/dev/null && pwd) \
+    plugin_src=$(cd "$here/../foam/plugin/stepServerDisplacement" 2>/dev/null && pwd) \
         || die "plugin sources not found next to $here (neither the repository nor an installed wheel)"
     build=${WHALE_BUILD_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/whale-adapter/build}
 fi

@@ -7,7 +7,7 @@ tests, runs ``mutmut run``, and collects the score and every surviving mutant's 
 ``out/mutation/report.md`` and ``out/mutation/summary.json``.
 
     python scripts/mutation.py                       # every module of the table
-    python scripts/mutation.py adapter/protocol.py   # one
+    python scripts/mutation.py adapter/coupling/protocol.py   # one
     python scripts/mutation.py --jobs 1              # mutmut's --max-children (default 2)
 """
 

@@ -6,7 +6,7 @@
 
 Prepares and meshes a smoke-preset case (unless ``--case`` already holds one), sets its end
 time to ``--steps`` flow steps (written every ``--write-every``), runs it with
-``adapter.case.run_case`` and samples the step-server's resident memory (psutil, the pid from
+``adapter.foam.case.run_case`` and samples the step-server's resident memory (psutil, the pid from
 ``<case>/.whale-adapter.pid``) every ``--interval`` seconds, with the number of steps served so
 far (rows of ``adapter/keypoints.csv``). Prints the RSS at the start, after the warm-up and at
 the end, and writes every sample to ``--out``. Exit code 1 when the RSS grew by more than
@@ -28,7 +28,7 @@ import psutil
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from adapter import case as C  # noqa: E402
+from adapter.foam import case as C  # noqa: E402
 from adapter.scene import load_scene  # noqa: E402
 
 _MB = 1024.0 * 1024.0

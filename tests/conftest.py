@@ -5,9 +5,9 @@ import shutil
 
 import pytest
 
-from adapter import case as C
-from adapter.animator import Animator
-from adapter.geometry import build_surface
+from adapter.body.geometry import build_surface
+from adapter.foam import case as C
+from adapter.motion.animator import Animator
 from adapter.scene import load_scene
 
 

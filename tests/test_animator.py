@@ -4,8 +4,8 @@ depending on time alone."""
 import numpy as np
 import pytest
 
-from adapter.animator import Animator
-from adapter.gait import load_fluke_table, rotation_y
+from adapter.motion.animator import Animator
+from adapter.motion.gait import load_fluke_table, rotation_y
 
 
 def test_displacement_depends_on_time_alone(smoke_scene, smoke_surface):
@@ -49,12 +49,12 @@ def test_stroke_events(paper_animator):
     dyn = a.dynamic
     np.testing.assert_allclose(a.V[dyn, 2], a.profile[dyn])  # upward profile at t = 0
     np.testing.assert_allclose(a.V[dyn, :2], 0)
-    a._advance(n - 1)
+    a.advance_to(n - 1)
     X, V = a.X.copy(), a.V.copy()
     expected_v = V[dyn] + a.dt * a.network.forces(X, V)[dyn]
-    a._advance(n)  # the top: one more step, then every velocity negated
+    a.advance_to(n)  # the top: one more step, then every velocity negated
     np.testing.assert_allclose(a.V[dyn], -expected_v, rtol=1e-12, atol=1e-12)
-    a._advance(2 * n)  # back at equilibrium: the downward profile replaces the velocities
+    a.advance_to(2 * n)  # back at equilibrium: the downward profile replaces the velocities
     np.testing.assert_allclose(a.V[dyn, 2], -a.profile[dyn])
     np.testing.assert_allclose(a.V[dyn, :2], 0)
 
@@ -121,14 +121,14 @@ def test_every_quarter_event_and_the_wrap_into_the_next_cycle(paper_animator):
     up[:, 2] = a.profile[dyn]
     for q in range(1, 7):
         n = q * n_q
-        a._advance(n - 1)
+        a.advance_to(n - 1)
         X, V = a.X.copy(), a.V.copy()
         x_new = X + dt * V
         v_new = V + dt * a.network.forces(X, V)  # the velocity the step reaches, before the event
-        a._advance(n)
+        a.advance_to(n)
         np.testing.assert_allclose(a.X[dyn], x_new[dyn], rtol=0, atol=1e-12)
         expected = {0: up, 1: -v_new[dyn], 2: -up, 3: -v_new[dyn]}[q % 4]
         np.testing.assert_allclose(a.V[dyn], expected, rtol=0, atol=1e-12, err_msg=f"quarter {q}")
         X, V = a.X.copy(), a.V.copy()
-        a._advance(n + 1)
+        a.advance_to(n + 1)
         np.testing.assert_allclose(a.X[dyn], (X + dt * V)[dyn], rtol=0, atol=1e-12)

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 from PyFoam.RunDictionary.ParsedParameterFile import ParsedParameterFile
 
-from adapter import case as C
+from adapter.body.geometry import build_surface
 from adapter.errors import AdapterError
-from adapter.geometry import build_surface
+from adapter.foam import case as C
 from adapter.scene import load_scene
 
 needs_openfoam = pytest.mark.skipif(shutil.which("pimpleFoam") is None,
@@ -423,7 +423,7 @@ def _scaled_scene(tmp_path, surface, length_m):
     the farthest x: a mesh file's length), as an STL."""
     pts = surface.points - surface.points[surface.landmarks["rostrum"]]
     pts = pts * (DOLPHIN_M / pts[:, 0].max())
-    from adapter.geometry import write_surface
+    from adapter.body.geometry import write_surface
 
     write_surface(tmp_path / "dolphin.stl", pts, surface.faces)
     marks = "\n".join(f"{name} = [{float(p[0])!r}, {float(p[1])!r}, {float(p[2])!r}]"
@@ -442,7 +442,7 @@ def test_a_mesh_file_of_another_length_is_refused_naming_both(tmp_path, smoke_su
 
 
 def test_cell_sizes_follow_the_body_length(tmp_path, smoke, smoke_surface):
-    from adapter.geometry import build_surface
+    from adapter.body.geometry import build_surface
 
     scene = _scaled_scene(tmp_path, smoke_surface, DOLPHIN_M)
     surface = build_surface(scene)

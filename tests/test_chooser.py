@@ -5,10 +5,10 @@ and its key-point error measured against a converged run (RK4 at a tiny step).""
 import numpy as np
 import pytest
 
-from adapter import chooser
-from adapter import numerics as nm
-from adapter.dryrun import KEYPOINTS, keypoint_nodes
-from adapter.integrators import make_integrator
+from adapter.motion.animator import Animator
+from adapter.motion.dryrun import KEYPOINTS, keypoint_nodes
+from adapter.motion.integrators import make_integrator
+from adapter.studies import chooser
 
 NODES = 600
 METHODS = ("forward_euler", "symplectic_euler", "verlet", "rk4")
@@ -17,8 +17,7 @@ METHODS = ("forward_euler", "symplectic_euler", "verlet", "rk4")
 def _half_stroke(scene, method, dt, count=False):
     """Key-point displacements at 8 instants over the first half-stroke, and the number of
     force evaluations the run took (counted by wrapping the force, when ``count``)."""
-    a = nm._animator(scene, NODES)
-    nm.set_step(a, method, dt)
+    a = Animator.with_integrator(scene, method, dt, nodes=NODES)
     calls = [0]
     if count:
         def force(X, V):
@@ -32,7 +31,7 @@ def _half_stroke(scene, method, dt, count=False):
     n = 2 * a.steps_per_quarter
     out = []
     for k in range(1, 9):
-        a._advance(k * n // 8)
+        a.advance_to(k * n // 8)
         d = a.X - a.rest
         out.append([d[kp[p]].mean(axis=0) for p in KEYPOINTS])
     return np.array(out), calls[0]

@@ -14,10 +14,10 @@ import shutil
 import numpy as np
 import pytest
 
-from adapter import case as C
-from adapter.animator import Animator
-from adapter.geometry import build_surface
-from adapter.mapping import DEFAULT_TOLERANCE, PatchMap
+from adapter.body.geometry import build_surface
+from adapter.coupling.mapping import DEFAULT_TOLERANCE, PatchMap
+from adapter.foam import case as C
+from adapter.motion.animator import Animator
 from adapter.scene import load_scene
 
 pytestmark = [

@@ -8,7 +8,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from adapter import dryrun
+from adapter.motion import dryrun
 from adapter.scene import load_scene
 
 PAPER_NODES, PAPER_EDGES = 11272, 22510

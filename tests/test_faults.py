@@ -26,16 +26,16 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from adapter import case as C
-from adapter import protocol as wire
-from adapter.animator import Animator
 from adapter.cli import build_parser
+from adapter.coupling import protocol as wire
+from adapter.coupling.mapping import PatchMap
+from adapter.coupling.protocol import HEADER, MAGIC, ErrorCode, MessageType
+from adapter.coupling.server import StepServer
 from adapter.errors import AdapterError, GeometryError, SceneError
-from adapter.integrators import make_integrator
-from adapter.mapping import PatchMap
-from adapter.protocol import HEADER, MAGIC, ErrorCode, MessageType
+from adapter.foam import case as C
+from adapter.motion.animator import Animator
+from adapter.motion.integrators import make_integrator
 from adapter.scene import load_scene
-from adapter.server import StepServer
 
 from .wire_client import Client, ServerSaid, finished, points_near, server_starter
 

@@ -3,8 +3,7 @@
 import numpy as np
 import pytest
 
-from adapter.errors import GeometryError
-from adapter.geometry import (
+from adapter.body.geometry import (
     LANDMARKS,
     TAIL_BASE_S,
     build_surface,
@@ -12,6 +11,7 @@ from adapter.geometry import (
     read_surface,
     validate_surface,
 )
+from adapter.errors import GeometryError
 from adapter.scene import load_scene
 
 PAPER_NODES, PAPER_EDGES = 11272, 22510

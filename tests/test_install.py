@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from adapter import case as C
+from adapter.foam import case as C
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -63,7 +63,7 @@ def installed(tmp_path_factory):
 def test_installed_package_is_the_wheel_with_its_data(installed):
     bin_dir, env, work = installed
     out = _run([str(bin_dir / "python"), "-c",
-                "import adapter, adapter.case as C, adapter.resources as R; "
+                "import adapter, adapter.foam.case as C, adapter.resources as R; "
                 "print(adapter.__file__); print(C.TEMPLATE_DIR); print(R.BUILD_SCRIPT); "
                 "print(R.IN_REPOSITORY)"], cwd=work, env=env).stdout.split("\n")
     venv = bin_dir.parent

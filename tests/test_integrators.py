@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
+from adapter.body.springs import network_from_edges
 from adapter.errors import UnstableError
-from adapter.integrators import ForwardEuler, make_integrator
-from adapter.springs import network_from_edges
+from adapter.motion.integrators import ForwardEuler, make_integrator
 
 
 def _damped_spring(k=4.0, mu=0.3):
@@ -66,8 +66,8 @@ def test_unknown_method_is_named():
 
 # -- the whole family -----------------------------------------------------------------------
 
-from adapter.integrators import METHODS  # noqa: E402
-from adapter.stability import mode_stable_dt  # noqa: E402
+from adapter.motion.integrators import METHODS  # noqa: E402
+from adapter.motion.stability import mode_stable_dt  # noqa: E402
 
 THEORY = {"forward_euler": 1, "symplectic_euler": 1, "verlet": 2, "rk4": 4,
           "backward_euler": 1}

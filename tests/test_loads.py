@@ -34,7 +34,7 @@ import shutil
 import numpy as np
 import pytest
 
-from adapter import case as C
+from adapter.foam import case as C
 
 from .channel_case import (
     FV_SCHEMES,

@@ -5,10 +5,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from adapter import mapping
+from adapter.body.geometry import build_surface
+from adapter.coupling import mapping
+from adapter.coupling.mapping import PatchMap, closest_point_weights
 from adapter.errors import GeometryError
-from adapter.geometry import build_surface
-from adapter.mapping import PatchMap, closest_point_weights
 from adapter.scene import load_scene
 
 
@@ -207,7 +207,7 @@ def test_cache_is_reused_only_for_the_same_patch_and_surface(surface, tmp_path, 
 def test_server_restart_with_the_same_patch_loads_the_map(tmp_path, count_searches):
     """A restarted run (a fresh server, the same patch) loads the map from
     adapter/patch-map.npz; a changed patch is mapped again. Same bytes either way."""
-    from adapter.animator import Animator
+    from adapter.motion.animator import Animator
 
     from .wire_client import Client, finished, points_near, server_starter
 

@@ -29,8 +29,8 @@ import shutil
 import numpy as np
 import pytest
 
-from adapter import case as C
-from adapter.yplus import read_boundary, read_faces, read_points
+from adapter.foam import case as C
+from adapter.foam.yplus import read_boundary, read_faces, read_points
 
 from .channel_case import (
     FV_SCHEMES,

@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from adapter import case as C
-from adapter.server import ENDPOINT_NAME, TOKEN_ENV
+from adapter.coupling.server import ENDPOINT_NAME, TOKEN_ENV
+from adapter.foam import case as C
 
 from .conftest import NEEDS_FOAM_AND_PLUGIN
 from .test_coupled import _whale_displacement

@@ -4,17 +4,18 @@ orders, a run past the bound, the chooser."""
 import numpy as np
 import pytest
 
-from adapter import numerics as nm
-from adapter.animator import Animator
 from adapter.errors import UnstableError
-from adapter.stability import EXPLICIT, predict
+from adapter.motion.animator import Animator
+from adapter.motion.stability import EXPLICIT, predict
+from adapter.studies import numerics as nm
 
 NODES = nm.SMALL_NODES
 
 
 @pytest.fixture(scope="module")
 def small(smoke_scene):
-    return nm._animator(smoke_scene.replace(stroke={"velocity_scale": 0.92052}), NODES)
+    return Animator.with_integrator(smoke_scene.replace(stroke={"velocity_scale": 0.92052}),
+                                   nodes=NODES)
 
 
 @pytest.fixture(scope="module")
@@ -66,16 +67,16 @@ def test_a_step_past_the_bound_is_refused_with_the_stable_step(smoke_scene, smok
 
 def test_a_run_past_the_bound_stops_before_handing_on_nan(small, predicted):
     dt = 3.0 * predicted["symplectic_euler"]
-    nm.set_step(small, "symplectic_euler", dt)
+    small.set_integrator("symplectic_euler", dt)
     small.integrator.stable_dt = predicted["symplectic_euler"]
     with pytest.raises(UnstableError, match="largest stable step predicted"):
-        small._advance(10_000)
+        small.advance_to(10_000)
     assert np.isfinite(small.X).all() and np.isfinite(small.V).all()
     assert np.abs(small.X - small.rest).max() <= 2.0 * small.surface.length
 
 
 def test_the_chooser_meets_its_stated_tolerance(smoke_scene):
-    from adapter import chooser
+    from adapter.studies import chooser
 
     # the paper's stroke, for which the choice below was measured (the smooth stroke's
     # tether makes the coarse whales differ more: it picks 2,400 nodes)

@@ -26,8 +26,8 @@ import pytest
 from PIL import Image, ImageDraw
 from scipy.ndimage import distance_transform_edt
 
-from adapter import paraview_report as R
 from adapter.errors import AdapterError
+from adapter.reports import paraview_report as R
 
 HAVE_PVBATCH = shutil.which("pvbatch") is not None
 
@@ -238,7 +238,7 @@ def dry_report(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def case_report(tmp_path_factory):
-    from adapter import case as C
+    from adapter.foam import case as C
 
     if shutil.which("pimpleFoam") is None or shutil.which("mpirun") is None:
         pytest.skip("OpenFOAM (pimpleFoam, mpirun) is not on PATH: no coupled case to draw")

@@ -7,9 +7,9 @@ import threading
 import numpy as np
 import pytest
 
-from adapter import protocol as wire
+from adapter.coupling import protocol as wire
+from adapter.coupling.protocol import ErrorCode, MessageType, WireError
 from adapter.errors import ProtocolError
-from adapter.protocol import ErrorCode, MessageType, WireError
 
 
 def test_header_layout_matches_the_spec():

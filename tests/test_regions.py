@@ -7,10 +7,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from adapter import geometry as G
-from adapter import loads as ld
-from adapter.case import REGIONS_STL, prepare_case
-from adapter.swimrun import COST_ROWS
+from adapter.body import geometry as G
+from adapter.foam import loads as ld
+from adapter.foam.case import REGIONS_STL, prepare_case
+from adapter.foam.swimrun import COST_ROWS
 
 
 def _areas(surface):

@@ -16,13 +16,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from adapter import protocol as wire
-from adapter.animator import Animator
+from adapter.coupling import protocol as wire
+from adapter.coupling.mapping import PatchMap
+from adapter.coupling.protocol import ErrorCode, MessageType
+from adapter.coupling.server import ServerStartError, StepServer, time_name
 from adapter.errors import UnstableError
-from adapter.mapping import PatchMap
-from adapter.protocol import ErrorCode, MessageType
+from adapter.motion.animator import Animator
 from adapter.scene import load_scene
-from adapter.server import ServerStartError, StepServer, time_name
 
 from .wire_client import Client, ServerSaid, finished, points_near, server_starter
 
@@ -403,7 +403,7 @@ def test_another_hosts_server_is_never_judged_stale(case, scene, animator):
 
 
 def test_token_file_must_be_private(tmp_path, monkeypatch):
-    from adapter.server import resolve_token
+    from adapter.coupling.server import resolve_token
 
     f = tmp_path / "token"
     f.write_text("s3cret\n")

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from adapter.springs import momentum_rate, network_from_edges, region_constants, smooth_step
+from adapter.body.springs import momentum_rate, network_from_edges, region_constants, smooth_step
 
 
 def _three_nodes(form):

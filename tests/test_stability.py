@@ -1,4 +1,4 @@
-"""Stable steps against truths from outside adapter/stability.py: on a small closed spring
+"""Stable steps against truths from outside adapter/motion/stability.py: on a small closed spring
 network, the exact forward-Euler bound from the eigenvalues of the linearised system (its
 Jacobian taken by finite differences of the force law, its eigenvalues by numpy), and forward
 Euler itself, written out here, run at and just past the bounds."""
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
 
-from adapter.springs import network_from_edges
-from adapter.stability import predict
+from adapter.body.springs import network_from_edges
+from adapter.motion.stability import predict
 
 
 def _closed_net(mu=0.5, nu=0.05, form="paper", n=40, seed=3):

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from adapter import dryrun
-from adapter.animator import Animator
-from adapter.gait import load_fluke_table
-from adapter.geometry import build_surface
+from adapter.body.geometry import build_surface
+from adapter.motion import dryrun
+from adapter.motion.animator import Animator
+from adapter.motion.gait import load_fluke_table
 
 
 def _quintic(x):
@@ -40,11 +40,11 @@ def test_wall_velocity_is_continuous_at_the_start_and_every_reversal(smoke_anima
     the top and bottom of the stroke: O(dt) for the smooth stroke, a jump for the paper's."""
     def largest_jump(a, t):
         n = round(t / a.dt)
-        a._advance(max(n - 2, 0))
+        a.advance_to(max(n - 2, 0))
         jumps = []
         for k in range(max(n - 1, 1), n + 3):
             v0 = a.V[a.dynamic].copy()
-            a._advance(k)
+            a.advance_to(k)
             jumps.append(np.abs(a.V[a.dynamic] - v0).max())
         return max(jumps)
 

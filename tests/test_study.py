@@ -1,5 +1,5 @@
-"""The flow study (adapter/study.py, adapter/gci.py): the GCI arithmetic against the worked
-example of Celik et al. (2008), the three meshes' cell sizes, the study's machinery with a
+"""The flow study (adapter/studies/study.py, adapter/studies/gci.py): the GCI arithmetic against the
+worked example of Celik et al. (2008), the three meshes' cell sizes, the study's machinery with a
 model runner (known convergence, known self-propelled speed, stop and resume, chart, chooser),
 and the study on the smoke whale with the real pimpleFoam."""
 
@@ -9,10 +9,10 @@ import time
 
 import pytest
 
-from adapter import case as C
-from adapter import gci as G
-from adapter import study as S
 from adapter.errors import AdapterError
+from adapter.foam import case as C
+from adapter.studies import gci as G
+from adapter.studies import study as S
 
 from .conftest import NEEDS_FOAM_AND_PLUGIN
 

@@ -1,4 +1,5 @@
-"""What swimming costs the whale: the arithmetic of adapter/loads.py against worked numbers, and
+"""What swimming costs the whale: the arithmetic of adapter/foam/loads.py against worked numbers,
+and
 run-case's gliding + swimming pair on the smoke whale with the real pimpleFoam."""
 
 import json
@@ -11,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from adapter import loads as ld
 from adapter.errors import AdapterError
+from adapter.foam import loads as ld
 
 
 def _write_loads(path: Path, times, fx, power, extra_header=""):
@@ -102,7 +103,7 @@ def test_efficiency_and_cost_of_transport_worked_example():
 
 def test_body_dimensions_of_a_box():
     """A 4 x 2 x 1 m box: area 28 m2, volume 8 m3, height 1 m."""
-    from adapter.geometry import WhaleSurface
+    from adapter.body.geometry import WhaleSurface
 
     p = np.array([[x, y, z] for x in (0, 4) for y in (-1, 1) for z in (-0.5, 0.5)], float)
     quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4],
@@ -135,7 +136,7 @@ gliding = true
 
 @pytest.mark.skipif(shutil.which("pimpleFoam") is None, reason="OpenFOAM is not installed")
 def test_run_case_runs_gliding_and_swimming_to_a_periodic_state(tmp_path):
-    from adapter.case import PLUGIN_LIB
+    from adapter.foam.case import PLUGIN_LIB
 
     if not PLUGIN_LIB.is_file():
         pytest.skip(f"the plugin library {PLUGIN_LIB} is not built (make plugin)")

@@ -1,4 +1,4 @@
-"""adapter.yplus: OpenFOAM ASCII readers and area-weighted y+ statistics.
+"""adapter.foam.yplus: OpenFOAM ASCII readers and area-weighted y+ statistics.
 
 The hand-built mesh: two hexahedra side by side, x in [0, 1] and [1, 3], y in [0, 1],
 z in [0, 1]. Its bottom (z = 0) faces form the patch ``whale`` with areas 1 and 2 m2 (from
@@ -13,9 +13,9 @@ import shutil
 import numpy as np
 import pytest
 
-from adapter import case as C
-from adapter import yplus as Y
 from adapter.errors import AdapterError
+from adapter.foam import case as C
+from adapter.foam import yplus as Y
 
 needs_openfoam = pytest.mark.skipif(shutil.which("pimpleFoam") is None,
                                     reason="OpenFOAM (pimpleFoam) is not on PATH")

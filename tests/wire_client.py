@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from adapter import protocol as wire
-from adapter.protocol import MessageType
-from adapter.server import StepServer
+from adapter.coupling import protocol as wire
+from adapter.coupling.protocol import MessageType
+from adapter.coupling.server import StepServer
 
 
 class ServerSaid(Exception):

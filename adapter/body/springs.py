@@ -24,8 +24,9 @@ import scipy.sparse as sp
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _edge_forces(X, V, i, j, rest, k_on_i, k_on_j, mu, nu, out):  # pragma: no cover - compiled
-    """One pass over the edges: spring and damping pair forces, then fluid resistance.
+def edge_forces(X, V, i, j, rest, k_on_i, k_on_j, mu, nu, out):  # pragma: no cover - compiled
+    """One pass over the edges: spring and damping pair forces, then fluid resistance; the
+    force (N, 3) is written into ``out`` and returned (the integrators' kernels call it).
 
     Works on flat views (3 a + d), as a C kernel would: numba then needs no row strides.
     """
@@ -66,6 +67,8 @@ class SpringNetwork:
     k_node : (N,) float64, per-node spring constants (1/s^2 for unit mass).
     mu, nu : damping and fluid resistance (1/s).
     form : "paper" or "symmetric".
+    k_on_i, k_on_j : (E,) float64, the constant each edge's spring has at its end i, at its
+        end j (derived; the arguments of :func:`edge_forces`).
     """
 
     i: np.ndarray
@@ -90,8 +93,8 @@ class SpringNetwork:
             k_on_i = k_on_j = 0.5 * (self.k_node[self.i] + self.k_node[self.j])
         # F_spring = S_i diag(k_on_i) g - S_j diag(k_on_j) g, g_e = (X_j - X_i)(1 - l/|.|)
         signed = (scatter_i @ sp.diags(k_on_i) - scatter_j @ sp.diags(k_on_j)).tocsr()
-        object.__setattr__(self, "_k_on_i", np.ascontiguousarray(k_on_i, dtype=np.float64))
-        object.__setattr__(self, "_k_on_j", np.ascontiguousarray(k_on_j, dtype=np.float64))
+        object.__setattr__(self, "k_on_i", np.ascontiguousarray(k_on_i, dtype=np.float64))
+        object.__setattr__(self, "k_on_j", np.ascontiguousarray(k_on_j, dtype=np.float64))
         adjacency = sp.csr_matrix(
             (np.ones(2 * e), (np.r_[self.i, self.j], np.r_[self.j, self.i])), shape=(n, n)
         )
@@ -107,7 +110,7 @@ class SpringNetwork:
     def forces(self, X: np.ndarray, V: np.ndarray) -> np.ndarray:
         """(N, 3) force on every node (= acceleration, unit masses) at positions X, velocities V."""
         out = np.empty_like(X)
-        return _edge_forces(X, V, self.i, self.j, self.rest, self._k_on_i, self._k_on_j,
+        return edge_forces(X, V, self.i, self.j, self.rest, self.k_on_i, self.k_on_j,
                             self.mu, self.nu, out)
 
     def damping_force(self, V: np.ndarray) -> np.ndarray:
@@ -159,3 +162,56 @@ def region_constants(s: np.ndarray, head_end: float, tail_start: float, k_head: 
     up = smooth_step(s, head_end, transition)
     down = smooth_step(s, tail_start, transition)
     return k_head + (k_pivot - k_head) * up + (k_tail - k_pivot) * down
+
+
+# -- the force's derivatives (the integrators' Jacobian, the stability analysis) ------------
+
+def _edge_blocks(net: SpringNetwork, X: np.ndarray, symmetric: bool):
+    d = X[net.j] - X[net.i]
+    length = np.linalg.norm(d, axis=1)
+    unit = d / length[:, None]
+    ratio = net.rest / length
+    # d g / d d for g = d (1 - l/|d|): (1 - l/|d|) I + (l/|d|) n n^T
+    J = (ratio[:, None, None] * unit[:, :, None] * unit[:, None, :]
+         + (1.0 - ratio)[:, None, None] * np.eye(3)[None])
+    if symmetric or net.form == "symmetric":
+        k_i = k_j = 0.5 * (net.k_node[net.i] + net.k_node[net.j])
+    else:
+        k_i, k_j = net.k_node[net.j], net.k_node[net.i]  # constant felt at i, at j
+    return J, k_i, k_j
+
+
+def stiffness_matrix(net: SpringNetwork, points: np.ndarray,
+                     symmetric: bool = True) -> sp.csr_matrix:
+    """(3N, 3N) linearised stiffness K = -dF/dX at ``points``: K u is minus the change of the
+    spring force for a small displacement u. At rest it is sum_e k n n^T (n the edge's unit
+    direction); away from rest it includes the geometric term (1 - l/|d|)(I - n n^T).
+
+    ``symmetric=True`` uses (k_i + k_j)/2 at both ends of an edge (a symmetric matrix) even for
+    the paper's form; ``False`` is the true Jacobian of the network's force.
+    """
+    n = net.n_nodes
+    J, k_i, k_j = _edge_blocks(net, points, symmetric)
+    a = np.arange(3)
+    rows, cols, vals = [], [], []
+    for (r, c, w) in ((net.i, net.i, k_i), (net.i, net.j, -k_i),
+                      (net.j, net.j, k_j), (net.j, net.i, -k_j)):
+        rows.append((3 * r[:, None, None] + a[None, :, None]) + 0 * a[None, None, :])
+        cols.append((3 * c[:, None, None] + a[None, None, :]) + 0 * a[None, :, None])
+        vals.append(w[:, None, None] * J)
+    return sp.csr_matrix(
+        (np.concatenate([v.ravel() for v in vals]),
+         (np.concatenate([r.ravel() for r in rows]), np.concatenate([c.ravel() for c in cols]))),
+        shape=(3 * n, 3 * n),
+    )
+
+
+def force_jacobian(net: SpringNetwork, X: np.ndarray) -> sp.csr_matrix:
+    """(3N, 3N) dF/dX of the network's spring force at positions X (x, y, z interleaved)."""
+    return -stiffness_matrix(net, X, symmetric=False)
+
+
+def damping_matrix(net: SpringNetwork) -> sp.csr_matrix:
+    """(3N, 3N) C = -dF/dV = (mu L + nu I) (x) I_3, constant."""
+    c = net.mu * net.laplacian + net.nu * sp.identity(net.n_nodes)
+    return sp.kron(c, sp.identity(3)).tocsr()

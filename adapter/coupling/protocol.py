@@ -19,7 +19,7 @@ from enum import IntEnum
 
 import numpy as np
 
-from .errors import ProtocolError
+from adapter.errors import ProtocolError
 
 MAGIC = b"WHAL"
 #: 2: one link per case (the master rank sends every rank's points; no rank field in HELLO)

@@ -20,7 +20,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.interpolate import PchipInterpolator
 
-from .errors import GeometryError
+from adapter.errors import GeometryError
 
 LANDMARKS = (
     "rostrum",
@@ -865,7 +865,7 @@ def register(subparsers) -> None:
 
 
 def _cmd_geometry(args: argparse.Namespace) -> int:
-    from .scene import load_scene
+    from adapter.scene import load_scene
 
     scene = load_scene(args.scene, preset=args.preset)
     surface = build_surface(scene)

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import AdapterError
+from adapter.errors import AdapterError
 
 #: the function object's name in system/controlDict (its postProcessing folder)
 LOADS_NAME = "loads"

@@ -1,8 +1,9 @@
 """ParaView pictures of a run (``whale-adapter paraview DIR``).
 
 A plain-Python driver: it checks DIR, chooses the times to draw, and runs the ParaView script
-``adapter/pvscripts/report.py`` under ``xvfb-run -a pvbatch`` (Debian's ParaView 5.11 needs an X
-display, see docs/paraview.md), printing the script's progress lines as they come.
+``adapter/reports/pvscripts/report.py`` under ``xvfb-run -a pvbatch``
+(Debian's ParaView 5.11 needs an X display, see docs/paraview.md), printing the script's
+progress lines as they come.
 
 DIR is either
 
@@ -30,7 +31,7 @@ import sys
 import time
 from pathlib import Path
 
-from .errors import AdapterError, ParaViewError
+from adapter.errors import AdapterError, ParaViewError
 
 #: the pvbatch script, run by ParaView's own Python
 PV_SCRIPT = Path(__file__).resolve().parent / "pvscripts" / "report.py"

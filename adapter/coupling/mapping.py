@@ -19,7 +19,7 @@ import numba
 import numpy as np
 import scipy.sparse
 
-from .errors import GeometryError
+from adapter.errors import GeometryError
 
 #: default rejection threshold: a patch point farther than this fraction of L from the surface
 DEFAULT_TOLERANCE = 0.05

@@ -4,7 +4,8 @@
 and speaks the protocol of docs/protocol.md with ONE client per case, however many MPI ranks
 OpenFOAM runs: the master rank gathers every rank's patch points and sends them in one HELLO,
 and scatters the displacements itself. The patch points are mapped onto the whale surface once
-(:class:`~adapter.mapping.PatchMap`); the animator is advanced once per flow time, and, while
+(:class:`~adapter.coupling.mapping.PatchMap`); the animator is advanced once per flow time,
+and, while
 OpenFOAM solves the flow,
 already towards the next expected time (work-ahead, undone from a checkpoint when the guess
 was wrong). Writes under ``DIR/adapter/``: ``whale_<t>.vtp`` + ``whale.pvd`` and
@@ -35,13 +36,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import protocol as wire
-from .errors import GeometryError, ServerStartError, UnstableError
-from .mapping import DEFAULT_TOLERANCE, PatchMap
-from .protocol import ErrorCode, MessageType, WireError
-from .scene import PRESETS
+from adapter.coupling import protocol as wire
+from adapter.coupling.mapping import DEFAULT_TOLERANCE, PatchMap
+from adapter.coupling.protocol import ErrorCode, MessageType, WireError
+from adapter.errors import GeometryError, ServerStartError, UnstableError
+from adapter.scene import PRESETS
 
-log = logging.getLogger("adapter.server")
+log = logging.getLogger("adapter.coupling.server")
 
 SOCKET_NAME = ".whale-adapter.sock"
 PID_NAME = ".whale-adapter.pid"
@@ -239,7 +240,9 @@ class StepServer:
             self._listen()
             _atomic_write_text(self.pid_path, f"{os.getpid()} {socket.gethostname()}\n")
             if self.animator is None:
-                from .animator import Animator  # the animator is heavy; import on demand
+                from adapter.motion.animator import (
+                    Animator,  # the animator is heavy; import on demand
+                )
                 self.animator = Animator(self.scene)
             else:
                 self.animator.reset()
@@ -1065,7 +1068,7 @@ def register(subparsers) -> None:
 
 
 def _cmd_serve(args: argparse.Namespace) -> int:
-    from .scene import load_scene
+    from adapter.scene import load_scene
 
     scene = load_scene(args.scene, args.preset)
     token = resolve_token(args.token_file, args.token)

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import AdapterError
+from adapter.errors import AdapterError
 
 #: the y+ limits reported as fractions of the area below them
 YPLUS_LIMITS = (1.0, 5.0, 30.0, 300.0)

@@ -4,7 +4,7 @@ the self-propelled speed.
 For one scene it runs, each case in its own folder under ``<study>/``:
 
 - ``mesh-1/case``, ``mesh-2/case``, ``mesh-3/case``: the gliding + swimming pair
-  (:func:`adapter.swimrun.run_swim_and_glide`) on three systematically refined meshes, each
+  (:func:`adapter.foam.swimrun.run_swim_and_glide`) on three systematically refined meshes, each
   ``ratio`` times coarser than the one before. ``finest = "scene"`` (the default): mesh 1 is
   the scene's own mesh; ``"refined"``: mesh 2 is, and mesh 1 has every cell ``ratio`` times
   smaller (with the paper's hinged fluke gate the surface folds at the hinge within one
@@ -14,7 +14,7 @@ For one scene it runs, each case in its own folder under ``<study>/``:
   layers: the first layer keeps its thickness (the first cell centre's y+ stays where the
   wall function holds it), the stack's total thickness scales with the cells
   (:func:`layer_rule`). The flow step is the same on all three (the scene's ``case.dt_s``, or
-  the automatic step of mesh 2), so the three differ in space only.
+  the automatic step of the scene's own mesh), so the three differ in space only.
 - ``mesh-2/dt-half``: mesh 2 with the flow step halved (the time-step check; exactly half
   of mesh 2's rounded step).
 - ``mesh-2/speed-<f>``: mesh 2 at ``f`` times the scene's flow speed (``f = 1`` is
@@ -22,7 +22,7 @@ For one scene it runs, each case in its own folder under ``<study>/``:
   through the points for three) and solved for mean Fx = 0: the self-propelled speed, with the
   power and cost of transport there.
 
-Then Richardson extrapolation and Roache's GCI (adapter/gci.py) for gliding drag, mean
+Then Richardson extrapolation and Roache's GCI (adapter/studies/gci.py) for gliding drag, mean
 swimming Fx and mean power; ``<study>/study.json``, a table, and ``accuracy-vs-cost.png``.
 A stopped study run again continues: finished cases are skipped, unfinished ones resume from
 their latest written time (run_case). See docs/case.md, "The flow study".
@@ -39,8 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import gci as G
-from .case import (
+from adapter.errors import AdapterError
+from adapter.foam.case import (
     CASE_RECORD,
     SUMMARY,
     case_parameters,
@@ -49,7 +49,7 @@ from .case import (
     read_record,
     write_json,
 )
-from .errors import AdapterError
+from adapter.studies import gci as G
 
 PLAN = "study-plan.json"
 RESULT = "study.json"
@@ -234,17 +234,17 @@ def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS
     """Prepare, mesh and run every case of the study (skipping finished ones), then analyse.
 
     ``runner(case, record, tolerance, ranks, progress) -> summary`` runs one pair (default
-    :func:`adapter.swimrun.run_swim_and_glide`); ``mesher(case)`` meshes a prepared case
-    (default :func:`adapter.case.mesh_case`). Returns study.json's content."""
+    :func:`adapter.foam.swimrun.run_swim_and_glide`); ``mesher(case)`` meshes a prepared case
+    (default :func:`adapter.foam.case.mesh_case`). Returns study.json's content."""
     if runner is None:
-        from .swimrun import run_swim_and_glide
+        from adapter.foam.swimrun import run_swim_and_glide
 
         def runner(case, record, tolerance, ranks, progress):
             return run_swim_and_glide(case, record, tolerance, ranks=ranks, progress=progress)
     mesher = mesher or mesh_case
     out = Path(out).resolve()
     if surface is None:
-        from .geometry import build_surface
+        from adapter.body.geometry import build_surface
 
         surface = build_surface(scene)
     speeds = sorted(float(f) for f in speeds)
@@ -606,7 +606,7 @@ def register(subparsers) -> None:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    from .scene import load_scene
+    from adapter.scene import load_scene
 
     scene = load_scene(args.scene, preset=args.preset)
     parts = tuple(s.strip() for s in args.parts.split(",") if s.strip())

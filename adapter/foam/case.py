@@ -6,7 +6,8 @@ with PyFoam's ``ParsedParameterFile`` from the scene's ``[case]`` and ``[flow]``
 numbers themselves come from the pure function :func:`case_parameters`). :func:`mesh_case` runs
 blockMesh, snappyHexMesh and checkMesh; :func:`run_case` runs pimpleFoam (serial or on N MPI
 ranks) with the step-server (``whale-adapter serve``) in the background, shows progress, watches
-the mesh quality and writes ``<case>/adapter-summary.json``.
+the mesh quality and writes ``<case>/adapter-summary.json``. The command itself is
+:mod:`adapter.foam.command`.
 
 Mesh watch: pimpleFoam runs with ``-debug-switch polyMesh=1``, which makes OpenFOAM v1912's
 ``polyMesh::movePoints`` check every new mesh (``checkMeshMotion``) and print the smallest cell
@@ -18,7 +19,6 @@ a written, still valid mesh. See docs/case.md.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
@@ -33,11 +33,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import resources
-from .errors import AdapterError, SolverRunError
-from .yplus import time_dirs
+from adapter import resources
+from adapter.errors import AdapterError, SolverRunError
+from adapter.foam.yplus import time_dirs
 
-_REPO = Path(__file__).resolve().parent.parent
+_REPO = resources.REPO
 #: the template case (foam_case/ of the repository, adapter/_foam_case in a wheel)
 TEMPLATE_DIR = resources.TEMPLATE_DIR
 #: the boundary condition library built by scripts/build_plugin.sh (resources.build_dir())
@@ -248,7 +248,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         step-server boundary condition, and the plugin library is not loaded (a flow-only case,
         no server needed).
     scene_file : the scene's TOML file, recorded so that the step-server loads the same scene.
-    surface : a :class:`~adapter.geometry.WhaleSurface`; None builds the scene's.
+    surface : a :class:`~adapter.body.geometry.WhaleSurface`; None builds the scene's.
 
     Returns the :class:`CaseParameters` written; they are also recorded in
     ``<case>/adapter-case.json``.
@@ -263,7 +263,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         raise AdapterError(f"the template case {TEMPLATE_DIR} is missing; reinstall the "
                            "package (pip install . or pip install -e . from the repository)")
     if surface is None:
-        from .geometry import build_surface
+        from adapter.body.geometry import build_surface
 
         surface = build_surface(scene)
     _check_length(scene, surface)
@@ -279,7 +279,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
                              length=surface.length)
     _write_dictionaries(case, scene, params, static_whale)
-    from .loads import body_dimensions
+    from adapter.foam.loads import body_dimensions
 
     tail_base_s = float(surface.s[surface.landmarks["tail_base"]])
     st = scene.stroke
@@ -535,7 +535,7 @@ def layer_record(case_dir) -> dict:
     (``faces``, ``faces_with_layers``, ``face_coverage``, ``mean_layers``, ``thickness_m``,
     ``thickness_pct``) and the area-weighted coverage from the ``nSurfaceLayers`` field
     (``area_with_layers``, ``area_full_thickness``); empty when the case has no layers."""
-    from .yplus import layer_coverage, parse_layer_report
+    from adapter.foam.yplus import layer_coverage, parse_layer_report
 
     case = Path(case_dir)
     log = case / "log.snappyHexMesh"
@@ -783,7 +783,7 @@ def _start_server(case: Path, record: dict, timeout: float = 60.0, host: str | N
                   port: int | None = None, token: str | None = None) -> subprocess.Popen:
     """Start the step-server; return once it has published its endpoint file. TCP when a host
     or a port is given. The token goes through the environment, never the command line."""
-    from .server import ENDPOINT_NAME, TOKEN_ENV
+    from adapter.coupling.server import ENDPOINT_NAME, TOKEN_ENV
 
     endpoint = case / ENDPOINT_NAME
     log = open(case / "log.server", "w")  # noqa: SIM115 - closed by _stop_server
@@ -893,7 +893,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     end_time = float(control["endTime"])
     if start_time >= end_time - 0.5 * float(control["deltaT"]):
         return _finished(case, record, ranks, from_ranks, t_start)
-    from .server import TOKEN_ENV
+    from adapter.coupling.server import TOKEN_ENV
 
     token = token or os.environ.get(TOKEN_ENV) or None
     env = foam_env()
@@ -1089,114 +1089,6 @@ def summarise(case: Path, watch: LogWatch, record: dict, ranks: int, flow_wall: 
     }
     return {k: (None if isinstance(v, float) and math.isnan(v) else v)
             for k, v in summary.items()}
-
-
-# --------------------------------------------------------------------------------------------
-# command line
-
-
-def register(subparsers) -> None:
-    p = subparsers.add_parser(
-        "run-case",
-        help="prepare, mesh and run the OpenFOAM whale-in-channel case",
-        description="Prepare the case from the template (foam_case/) and the scene unless --case "
-        "already holds one, mesh it when it has no mesh, then run pimpleFoam with the "
-        "step-server and write adapter-summary.json.",
-    )
-    p.add_argument("--scene", help="scene TOML file (default: built-in default)")
-    p.add_argument("--preset", help="built-in preset: default, smoke, fine")
-    p.add_argument("--case", default=None, help="case folder (default: runs/<preset>)")
-    p.add_argument("--np", type=int, default=None, dest="ranks",
-                   help="MPI ranks (default: the scene's case.ranks)")
-    p.add_argument("--mesh-only", action="store_true", help="prepare and mesh, do not run")
-    p.add_argument("--static-whale", action="store_true",
-                   help="flow only: the whale does not move, no step-server or plugin needed")
-    p.add_argument("--host", default=None,
-                   help="the step-server listens on TCP at this host name or address (e.g. "
-                        "0.0.0.0 for every interface; published in the case's endpoint file) "
-                        "instead of the case's UNIX socket; a non-loopback host needs a token")
-    p.add_argument("--port", type=int, default=None,
-                   help="TCP port of the step-server (default 0: any free one)")
-    p.add_argument("--token-file", default=None, metavar="FILE",
-                   help="the shared secret, in a file only its owner may read (chmod 600); "
-                        "default $WHALE_ADAPTER_TOKEN. Never written into the case")
-    p.set_defaults(func=_cmd_run_case)
-
-
-def _cmd_run_case(args: argparse.Namespace) -> int:
-    from .scene import load_scene
-
-    if args.ranks is not None and args.ranks < 1:
-        raise AdapterError(f"--np: expected at least 1 rank, got {args.ranks}")
-    case = Path(args.case or Path("runs") / (args.preset or "default"))
-    exists = (case / "system" / "controlDict").exists()
-    if exists:
-        # refuses a folder not made by run-case before anything (blockMesh) touches it
-        record = read_record(case)
-        _check_same_case(case, record, args)
-        t0, control = resume_time(case), parsed_dict(case / "system" / "controlDict")
-        print(f"{case} already holds a case ({_recorded(record)}): "
-              f"continuing it from t = {t0:.6g} s")
-        if t0 >= float(control["endTime"]) - 0.5 * float(control["deltaT"]):
-            print(f"it has reached its end time ({float(control['endTime']):.6g} s): nothing to "
-                  "run (to run it longer, raise endTime in its system/controlDict)")
-    else:
-        scene = load_scene(args.scene, preset=args.preset)
-        params = prepare_case(scene, case, ranks=args.ranks, static_whale=args.static_whale,
-                              scene_file=args.scene)
-        print(f"prepared {case}: background {params.cells[0]}x{params.cells[1]}x{params.cells[2]}"
-              f" cells, smallest cell {params.smallest_cell_m:.3g} m, dt {params.delta_t:.4g} s,"
-              f" {params.n_steps} steps to t = {params.end_time:.4g} s")
-    if args.mesh_only or not (case / "constant" / "polyMesh" / "owner").exists():
-        info = mesh_case(case)
-        print(f"meshed {case}: {info.get('cells')} cells, whale patch {info.get('whale_faces')} "
-              f"faces / {info.get('whale_points')} points, max non-orthogonality "
-              f"{info.get('max_non_orthogonality')} deg, {info['mesh_s']} s")
-        if args.mesh_only:
-            return 0
-    record = read_record(case)
-    if record.get("gliding", False) and not record.get("static_whale"):
-        from .swimrun import COST_ROWS, run_swim_and_glide
-
-        summary = run_swim_and_glide(case, record, float(record["periodic_tolerance"]),
-                                     ranks=args.ranks)
-        print(f"\n{case}: what swimming costs the whale")
-        print(format_summary(summary, COST_ROWS))
-        print(f"(all figures: {case / SUMMARY}; picture: {case / 'forces.png'})")
-        return 0
-    from .server import resolve_token
-
-    token = resolve_token(args.token_file)
-    summary = run_case(case, ranks=args.ranks, host=args.host, port=args.port, token=token)
-    print(format_summary(summary))
-    print(f"(all figures: {case / SUMMARY})")
-    return 0
-
-
-def _recorded(record: dict) -> str:
-    what = (f"scene {record['scene_file']}" if record.get("scene_file")
-            else f"preset {record.get('preset')}")
-    return what + (", static whale" if record.get("static_whale") else "")
-
-
-def _check_same_case(case: Path, record: dict, args: argparse.Namespace) -> None:
-    """A rerun may name the case's scene/preset again (make run-case does); refuse another."""
-    differs = []
-    if args.scene:
-        asked = str(Path(args.scene).resolve())
-        if asked != record.get("scene_file"):
-            differs.append(f"--scene {asked} (recorded: {_recorded(record)})")
-    if args.preset and (args.preset != record.get("preset")
-                        or (not args.scene and record.get("scene_file"))):
-        differs.append(f"--preset {args.preset} (recorded: {_recorded(record)})")
-    if args.static_whale and not record.get("static_whale"):
-        differs.append("--static-whale (recorded: a coupled, moving whale)")
-    if differs:
-        raise AdapterError(
-            f"{case} already holds a case of another set-up: {'; '.join(differs)} "
-            f"(from {case / CASE_RECORD}). Run it as it is with `whale-adapter run-case --case "
-            f"{case}` (no --scene/--preset), or prepare the new one in another --case "
-            f"(make run-case CASE=...), or remove {case} first")
 
 
 #: the rows of :func:`format_summary`: (label, key of the summary (a/b for nested), format);

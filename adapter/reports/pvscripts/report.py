@@ -1,8 +1,8 @@
 """ParaView pictures of a coupled case or of a dry-run (run by pvbatch, not by the venv's Python).
 
-Started by ``whale-adapter paraview`` (:mod:`adapter.paraview_report`) as::
+Started by ``whale-adapter paraview`` (:mod:`adapter.reports.paraview_report`) as::
 
-    xvfb-run -a pvbatch adapter/pvscripts/report.py --input DIR --out OUT --kind case \
+    xvfb-run -a pvbatch adapter/reports/pvscripts/report.py --input DIR --out OUT --kind case \
         --times 0.19 0.38 [--case-type Reconstructed] [--size 1600 900] [--no-animation]
 
 ``--kind case``: ParaView's OpenFOAM reader on ``DIR/case.foam`` (regions internalMesh and
@@ -29,7 +29,8 @@ import time
 from paraview import simple as pvs
 
 #: camera directions (from the focal point towards the camera) in whale lengths, as the dry-run's
-#: frames.png (adapter/render.py) but closer: side from -y, angled from ahead, left and above
+#: frames.png (adapter/reports/render.py) but closer: side from -y, angled from ahead, left and
+#: above
 VIEWS = {
     "side": ((0.0, -2.2, 0.0), True),
     "angled": ((-0.8, -0.95, 0.65), False),

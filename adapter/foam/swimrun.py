@@ -9,7 +9,7 @@
    the gliding drag) and the cycle-mean power each change by less than the tolerance between
    the last two cycles; at most ``case.cycles`` cycles.
 
-From the loads of both (adapter/loads.py): mean drag gliding, mean Fx and power swimming,
+From the loads of both (adapter/foam/loads.py): mean drag gliding, mean Fx and power swimming,
 Froude efficiency and cost of transport, with the spike checks and van der Hoop et al.'s
 reference drag; the drag, Fx and power also per body region (body, flippers, flukes:
 ``swimming_cost/regions``). Written into ``<case>/adapter-summary.json`` under
@@ -23,9 +23,9 @@ import math
 import shutil
 from pathlib import Path
 
-from . import loads as ld
-from .case import SUMMARY, parsed_dict, read_record, run_case, time_dirs, write_json
-from .errors import AdapterError
+from adapter.errors import AdapterError
+from adapter.foam import loads as ld
+from adapter.foam.case import SUMMARY, parsed_dict, read_record, run_case, time_dirs, write_json
 
 GLIDING = "gliding"
 
@@ -108,8 +108,8 @@ def _run_unless_done(case: Path, ranks, progress, criterion) -> dict:
 def yplus_over_run(case: Path) -> dict:
     """Area-weighted y+ on the whale at every written time that has it: the worst fraction of
     the area with y+ <= 300 (Spalding's wall function holds there) and the last time's
-    statistics (adapter/yplus.py)."""
-    from .yplus import yplus_stats
+    statistics (adapter/foam/yplus.py)."""
+    from adapter.foam.yplus import yplus_stats
 
     per_time = [(t, yplus_stats(case, p.name)) for t, p in time_dirs(case)
                 if t > 0 and (p / "yPlus").is_file()]
@@ -182,7 +182,7 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
     summary["yplus"] = _finite(yplus_over_run(case))
     summary["yplus_gliding"] = _finite(yplus_over_run(glide))
     write_json(case / SUMMARY, summary)
-    from .render import plot_forces
+    from adapter.reports.render import plot_forces
 
     plot_forces(data, gd, period, ramp, case / "forces.png")
     return summary

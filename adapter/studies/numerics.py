@@ -3,7 +3,7 @@
 ``whale-adapter numerics --out DIR [--quick]`` (``make chart``) writes into DIR:
 
 - ``stability.csv`` / ``stability.png``: the largest stable step against the damping mu, per
-  method, predicted (:mod:`adapter.stability`) and measured on the whale by bisection, with
+  method, predicted (:mod:`adapter.motion.stability`) and measured on the whale by bisection, with
   the paper's criterion dt |F_i| <= 1;
 - ``work_precision.csv`` / ``work_precision.png``: surface error against wall time over one
   half-stroke, per method and step, against a converged RK4 reference;
@@ -30,29 +30,17 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import UnstableError
-from .integrators import METHODS, make_integrator
-from .stability import EXPLICIT, paper_criterion_dt, predict, stiffness_matrix
+from adapter.body.springs import stiffness_matrix
+from adapter.errors import UnstableError
+from adapter.motion.animator import Animator
+from adapter.motion.integrators import METHODS, make_integrator
+from adapter.motion.stability import EXPLICIT, paper_criterion_dt, predict
 
 #: theory's order per method
 THEORY_ORDER = {"forward_euler": 1, "symplectic_euler": 1, "verlet": 2, "rk4": 4,
                 "backward_euler": 1}
 #: the small whale of the stability and order studies (nodes)
 SMALL_NODES = 500
-
-
-# -- running the whale at a chosen step -----------------------------------------------------
-
-def set_step(a, method: str, dt: float) -> None:
-    """Give animator ``a`` the integrator ``method`` at the step nearest ``dt`` that divides
-    the quarter stroke (no stability check: for the studies), and reset it to t = 0."""
-    quarter = a.period / 4
-    a.steps_per_quarter = max(1, int(round(quarter / dt)))
-    a.dt = quarter / a.steps_per_quarter
-    a.integrator = make_integrator(method, a.network.forces, a.dt,
-                                   runaway=2.0 * a.surface.length, reference=a.rest,
-                                   stable_dt=a.stable_dt, network=a.network)
-    a.reset()
 
 
 def perturbation_growth(a, method: str, dt: float, n_steps: int | None = None,
@@ -167,33 +155,20 @@ def measure_stable_dt(a, method: str, guess: float, iterations: int = 4,
 def paper_criterion(a, dt: float, n_steps: int = 2000, every: int = 10) -> float:
     """The step the paper's criterion dt |F_i| <= 1 allows, with the largest force met over a
     run of ``n_steps`` forward-Euler steps at ``dt`` (a stable step)."""
-    set_step(a, "forward_euler", dt)
+    a.set_integrator("forward_euler", dt)
     peak = np.inf
     n = min(n_steps, 2 * a.steps_per_quarter - 1)
     for k in range(every, n + 1, every):
-        a._advance(k)
+        a.advance_to(k)
         peak = min(peak, paper_criterion_dt(a.network.forces(a.X, a.V)))
     return float(peak)
-
-
-def _animator(scene, nodes=None, **springs):
-    from .animator import Animator
-
-    changes = {}
-    if nodes:
-        changes["geometry"] = {"nodes": nodes}
-    if springs:
-        changes["springs"] = springs
-    sc = scene.replace(**changes) if changes else scene
-    # a safe step for construction; set_step replaces it
-    return Animator(sc.replace(integrator={"method": "forward_euler", "dt_s": 0.0}))
 
 
 def stability_study(scene, mus, nodes=SMALL_NODES, log=print) -> list[dict]:
     """Rows (mu, method, predicted_dt, measured_dt, paper_criterion_dt) on the small whale."""
     rows = []
     for mu in mus:
-        a = _animator(scene, nodes, mu=float(mu))
+        a = Animator.with_integrator(scene, nodes=nodes, mu=float(mu))
         pred = predict(a.network, a.rest, a.dynamic, exact=True)
         paper = paper_criterion(a, 0.5 * pred["forward_euler"])
         for m in EXPLICIT:
@@ -243,9 +218,9 @@ def _network_run(a, method: str, n_per_quarter: int) -> tuple[np.ndarray, float]
 
 def _whale_run(a, method: str, n_per_quarter: int) -> tuple[np.ndarray, float]:
     """The animator (gate, events) over one half-stroke: final positions and wall time."""
-    set_step(a, method, a.period / 4 / n_per_quarter)
+    a.set_integrator(method, a.period / 4 / n_per_quarter)
     t0 = time.perf_counter()
-    a._advance(2 * n_per_quarter)
+    a.advance_to(2 * n_per_quarter)
     return a.X.copy(), time.perf_counter() - t0
 
 
@@ -284,17 +259,17 @@ def resolution_study(scene, nodes_list, reference_nodes, method="forward_euler",
                      log=print) -> list[dict]:
     """Error of the key points over one half-stroke against node count (fixed method, the
     scene's step rule), measured against the ``reference_nodes`` whale."""
-    from .dryrun import KEYPOINTS, keypoint_nodes
+    from adapter.motion.dryrun import KEYPOINTS, keypoint_nodes
 
     def trace(nodes):
-        a = _animator(scene, nodes)
-        set_step(a, method, a.integrator.dt)
+        a = Animator.with_integrator(scene, nodes=nodes)
+        a.set_integrator(method, a.integrator.dt)
         kp = keypoint_nodes(a.surface.landmarks)
         n = 2 * a.steps_per_quarter
         out = []
         t0 = time.perf_counter()
         for k in range(1, 9):
-            a._advance(k * n // 8)
+            a.advance_to(k * n // 8)
             d = a.X - a.rest
             out.append([d[kp[p]].mean(axis=0) for p in KEYPOINTS])
         return np.array(out), time.perf_counter() - t0, a.surface.n_nodes
@@ -371,7 +346,7 @@ def _plot_xy(groups, xkey, ykey, xlabel, ylabel, title, path):
 
 def run(scene, out: Path, quick: bool = False, log=print) -> dict:
     """The whole study into ``out``; returns the summary."""
-    from .scene import load_scene
+    from adapter.scene import load_scene
 
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
@@ -382,13 +357,13 @@ def run(scene, out: Path, quick: bool = False, log=print) -> dict:
     _plot_stability(stab, out / "stability.png")
 
     log(f"convergence orders on the {SMALL_NODES}-node spring network (no gate)")
-    small = _animator(scene, SMALL_NODES)
+    small = Animator.with_integrator(scene, nodes=SMALL_NODES)
     conv, orders = order_study(small, log=log)
     _write_csv(out / "convergence.csv", conv)
 
     wp_scene = load_scene(preset="smoke") if quick else scene
     log(f"work-precision on the {wp_scene.name} whale (gate and events included)")
-    big = _animator(wp_scene)
+    big = Animator.with_integrator(wp_scene)
     wp_steps = {"forward_euler": (1500, 3000, 6000), "symplectic_euler": (1500, 3000, 6000),
                 "verlet": (64, 128, 256, 512), "rk4": (48, 96, 192),
                 "backward_euler": (8, 16, 32)}
@@ -459,13 +434,10 @@ def register(subparsers) -> None:
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--quick", action="store_true", help="fewer points, the smoke whale")
     p.set_defaults(func=_cmd_numerics)
-    from .chooser import register as register_choose
-
-    register_choose(subparsers)
 
 
 def _cmd_numerics(args: argparse.Namespace) -> int:
-    from .scene import load_scene
+    from adapter.scene import load_scene
 
     scene = load_scene(args.scene, preset=args.preset)
     summary = run(scene, Path(args.out), quick=args.quick)

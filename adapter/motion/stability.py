@@ -1,10 +1,11 @@
 """Stable time steps of the integrators on a spring network, predicted from its linearisation.
 
 Linearised about a configuration X, the network is u'' = -K u - C u' with unit masses, where
-K = -dF/dX (:func:`stiffness_matrix`; not symmetric for the paper's force law, which gives the
-two ends of an edge different constants) and C = -dF/dV = (mu L + nu I) (x) I_3
-(:func:`damping_matrix`; L the graph Laplacian). The fluke nodes are moved by the gate, not by
-the springs, so their rows and columns are dropped: only the free nodes take part.
+K = -dF/dX (:func:`~adapter.body.springs.stiffness_matrix`; not symmetric for the paper's
+force law, which gives the two ends of an edge different constants) and
+C = -dF/dV = (mu L + nu I) (x) I_3 (:func:`~adapter.body.springs.damping_matrix`; L the graph
+Laplacian). The fluke nodes are moved by the gate, not by the springs, so their rows and
+columns are dropped: only the free nodes take part.
 
 The eigenvalues lambda of the first-order matrix A = [[0, I], [-K, -C]] (:func:`spectrum`)
 decide. Each complex pair is one damped oscillator with omega^2 = |lambda|^2 and damping
@@ -28,7 +29,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .springs import SpringNetwork
+from adapter.body.springs import SpringNetwork, damping_matrix, stiffness_matrix
+from adapter.motion.integrators import METHODS
 
 #: stability limit of omega * dt for an undamped oscillator, per method (for the docs)
 OMEGA_DT_LIMIT = {"symplectic_euler": 2.0, "verlet": 2.0, "rk4": 2.828,
@@ -39,57 +41,6 @@ EXPLICIT = ("forward_euler", "symplectic_euler", "verlet", "rk4")
 DENSE_LIMIT = 1200
 #: eigenvalues of largest modulus computed for larger systems
 N_MODES = 120
-
-
-def _edge_blocks(net: SpringNetwork, X: np.ndarray, symmetric: bool):
-    d = X[net.j] - X[net.i]
-    length = np.linalg.norm(d, axis=1)
-    unit = d / length[:, None]
-    ratio = net.rest / length
-    # d g / d d for g = d (1 - l/|d|): (1 - l/|d|) I + (l/|d|) n n^T
-    J = (ratio[:, None, None] * unit[:, :, None] * unit[:, None, :]
-         + (1.0 - ratio)[:, None, None] * np.eye(3)[None])
-    if symmetric or net.form == "symmetric":
-        k_i = k_j = 0.5 * (net.k_node[net.i] + net.k_node[net.j])
-    else:
-        k_i, k_j = net.k_node[net.j], net.k_node[net.i]  # constant felt at i, at j
-    return J, k_i, k_j
-
-
-def stiffness_matrix(net: SpringNetwork, points: np.ndarray,
-                     symmetric: bool = True) -> sp.csr_matrix:
-    """(3N, 3N) linearised stiffness K = -dF/dX at ``points``: K u is minus the change of the
-    spring force for a small displacement u. At rest it is sum_e k n n^T (n the edge's unit
-    direction); away from rest it includes the geometric term (1 - l/|d|)(I - n n^T).
-
-    ``symmetric=True`` uses (k_i + k_j)/2 at both ends of an edge (a symmetric matrix) even for
-    the paper's form; ``False`` is the true Jacobian of the network's force.
-    """
-    n = net.n_nodes
-    J, k_i, k_j = _edge_blocks(net, points, symmetric)
-    a = np.arange(3)
-    rows, cols, vals = [], [], []
-    for (r, c, w) in ((net.i, net.i, k_i), (net.i, net.j, -k_i),
-                      (net.j, net.j, k_j), (net.j, net.i, -k_j)):
-        rows.append((3 * r[:, None, None] + a[None, :, None]) + 0 * a[None, None, :])
-        cols.append((3 * c[:, None, None] + a[None, None, :]) + 0 * a[None, :, None])
-        vals.append(w[:, None, None] * J)
-    return sp.csr_matrix(
-        (np.concatenate([v.ravel() for v in vals]),
-         (np.concatenate([r.ravel() for r in rows]), np.concatenate([c.ravel() for c in cols]))),
-        shape=(3 * n, 3 * n),
-    )
-
-
-def force_jacobian(net: SpringNetwork, X: np.ndarray) -> sp.csr_matrix:
-    """(3N, 3N) dF/dX of the network's spring force at positions X (x, y, z interleaved)."""
-    return -stiffness_matrix(net, X, symmetric=False)
-
-
-def damping_matrix(net: SpringNetwork) -> sp.csr_matrix:
-    """(3N, 3N) C = -dF/dV = (mu L + nu I) (x) I_3, constant."""
-    c = net.mu * net.laplacian + net.nu * sp.identity(net.n_nodes)
-    return sp.kron(c, sp.identity(3)).tocsr()
 
 
 def _free_dofs(n_nodes: int, free) -> np.ndarray:
@@ -142,15 +93,13 @@ def mode_parameters(lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _oscillator_step(method: str, w2, c, h):
     """The 2x2 amplification matrix of one step of ``method`` on x'' = -w2 x - c x'."""
-    from .integrators import METHODS
-
     def force(x, v):
         return -w2 * x - c * v
 
     integ = METHODS[method](force, 1.0)
     one, zero = np.ones_like(w2), np.zeros_like(w2)
-    x1, v1 = integ._step(one, zero, h)
-    x2, v2 = integ._step(zero, one, h)
+    x1, v1 = integ.method_step(one, zero, h)
+    x2, v2 = integ.method_step(zero, one, h)
     return x1, x2, v1, v2
 
 

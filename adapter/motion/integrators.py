@@ -25,7 +25,7 @@ Backward Euler: with J_x = dF/dX and J_v = dF/dV at (X, V),
 ``(I - dt J_v - dt^2 J_x) dV = dt (F + dt J_x V)``, ``V' = V + dV``, ``X' = X + dt V'``: one
 sparse LU solve per step (scipy.sparse.linalg.splu; the paper's force is not symmetric).
 
-When the integrator is given the :class:`~adapter.springs.SpringNetwork` (``network=``) and
+When the integrator is given the :class:`~adapter.body.springs.SpringNetwork` (``network=``) and
 its force is that network's, each explicit step runs as one compiled pass (numba): the force
 kernel fused with the update and the check, no temporary arrays beyond the two returned.
 """
@@ -37,8 +37,8 @@ from typing import Callable
 import numba
 import numpy as np
 
-from .errors import UnstableError
-from .springs import _edge_forces
+from adapter.body.springs import damping_matrix, edge_forces, force_jacobian
+from adapter.errors import UnstableError
 
 Force = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
@@ -61,7 +61,7 @@ def _fe_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cove
 @numba.njit(cache=True, error_model="numpy")
 def _fe_checked(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, ref):  # pragma: no cover
     """Forward Euler fused with the check: returns max |X1 - ref|, inf on NaN or infinity."""
-    _edge_forces(X, V, i, j, rest, ki, kj, mu, nu, V1)
+    edge_forces(X, V, i, j, rest, ki, kj, mu, nu, V1)
     x0, v0, r = X.reshape(-1), V.reshape(-1), ref.reshape(-1)
     x1, v1 = X1.reshape(-1), V1.reshape(-1)
     m = 0.0
@@ -79,7 +79,7 @@ def _fe_checked(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, ref):  # pragma: n
 
 @numba.njit(cache=True, error_model="numpy")
 def _se_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cover
-    _edge_forces(X, V, i, j, rest, ki, kj, mu, nu, V1)
+    edge_forces(X, V, i, j, rest, ki, kj, mu, nu, V1)
     for a in range(X.shape[0]):
         for d in range(3):
             v = V[a, d] + dt * V1[a, d]
@@ -91,7 +91,7 @@ def _se_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cove
 def _verlet_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cover
     a0 = np.empty_like(X)
     vp = np.empty_like(X)
-    _edge_forces(X, V, i, j, rest, ki, kj, mu, nu, a0)
+    edge_forces(X, V, i, j, rest, ki, kj, mu, nu, a0)
     h = 0.5 * dt
     for a in range(X.shape[0]):
         for d in range(3):
@@ -99,7 +99,7 @@ def _verlet_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no 
             V1[a, d] = vh
             X1[a, d] = X[a, d] + dt * vh
             vp[a, d] = vh + h * a0[a, d]
-    _edge_forces(X1, vp, i, j, rest, ki, kj, mu, nu, a0)
+    edge_forces(X1, vp, i, j, rest, ki, kj, mu, nu, a0)
     for a in range(X.shape[0]):
         for d in range(3):
             V1[a, d] += h * a0[a, d]
@@ -114,7 +114,7 @@ def _rk4_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cov
     h = 0.5 * dt
     w = dt / 6.0
     # stage 1: k1 = (V, F(X, V))
-    _edge_forces(X, V, i, j, rest, ki, kj, mu, nu, F)
+    edge_forces(X, V, i, j, rest, ki, kj, mu, nu, F)
     for a in range(n):
         for d in range(3):
             X1[a, d] = X[a, d] + w * V[a, d]
@@ -123,7 +123,7 @@ def _rk4_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cov
             Vs[a, d] = V[a, d] + h * F[a, d]
     # stages 2 and 3: k = (Vs, F(Xs, Vs)) at the midpoint
     for stage in range(2):
-        _edge_forces(Xs, Vs, i, j, rest, ki, kj, mu, nu, F)
+        edge_forces(Xs, Vs, i, j, rest, ki, kj, mu, nu, F)
         step = h if stage == 0 else dt
         for a in range(n):
             for d in range(3):
@@ -133,7 +133,7 @@ def _rk4_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cov
                 Xs[a, d] = X[a, d] + step * vs
                 Vs[a, d] = V[a, d] + step * F[a, d]
     # stage 4 at the end of the step
-    _edge_forces(Xs, Vs, i, j, rest, ki, kj, mu, nu, F)
+    edge_forces(Xs, Vs, i, j, rest, ki, kj, mu, nu, F)
     for a in range(n):
         for d in range(3):
             X1[a, d] += w * Vs[a, d]
@@ -169,7 +169,7 @@ class Integrator:
         unstable; ``None`` checks only for NaN and infinity.
     reference : (N, 3) rest positions used by the runaway check.
     stable_dt : the largest stable step (s) predicted for this method, named in the error.
-    network : the :class:`~adapter.springs.SpringNetwork` whose ``forces`` is ``force``;
+    network : the :class:`~adapter.body.springs.SpringNetwork` whose ``forces`` is ``force``;
         enables the compiled steps, and is required by ``backward_euler`` (its Jacobian).
     reuse_buffers : let the compiled steps write into three array sets in turn instead of new
         arrays (a returned state is overwritten three steps later).
@@ -203,7 +203,7 @@ class Integrator:
         self._kernel_args = None
         if network is not None and _same_force(force, network):
             net = network
-            self._kernel_args = (net.i, net.j, net.rest, net._k_on_i, net._k_on_j,
+            self._kernel_args = (net.i, net.j, net.rest, net.k_on_i, net.k_on_j,
                                  float(net.mu), float(net.nu))
 
     def step(self, X: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -266,6 +266,18 @@ class Integrator:
                 f"(NaN or runaway motion){hint}: lower integrator.dt_s (or set it to 0 to use "
                 "the predicted stable step), or raise the damping springs.mu"
             )
+
+    def restart(self, n_steps: int | None = None) -> None:
+        """Running again, from a state the owner set (a reset to t = 0, a restored checkpoint):
+        the failed status is cleared and the step count set to ``n_steps`` (None keeps it)."""
+        self.status = "running"
+        if n_steps is not None:
+            self.n_steps = n_steps
+
+    def method_step(self, X, V, dt):
+        """The method's own step from (X, V) over ``dt``, on arrays of any shape: no check, no
+        count, no compiled kernel (the stability analysis runs it on a scalar oscillator)."""
+        return self._step(X, V, dt)
 
     def _step(self, X, V, dt):
         raise NotImplementedError
@@ -342,7 +354,8 @@ class RK4(Integrator):
 class BackwardEuler(Integrator):
     """Linearised backward Euler (Baraff & Witkin 1998): one sparse solve per step.
 
-    Needs ``network=`` for the Jacobian of the spring force (:func:`stability.force_jacobian`).
+    Needs ``network=`` for the Jacobian of the spring force
+    (:func:`~adapter.body.springs.force_jacobian`).
     """
 
     name = "backward_euler"
@@ -353,16 +366,12 @@ class BackwardEuler(Integrator):
         if self.network is None:
             raise ValueError("backward_euler needs the spring network for its Jacobian: "
                              "make_integrator(..., network=net)")
-        from .stability import damping_matrix
-
         self._c = damping_matrix(self.network)  # C = -dF/dV, constant
         self._eye = None
 
     def _step(self, X, V, dt):
         import scipy.sparse as sp
         from scipy.sparse.linalg import splu
-
-        from .stability import force_jacobian
 
         jx = force_jacobian(self.network, X)
         n = jx.shape[0]

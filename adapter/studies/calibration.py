@@ -19,12 +19,12 @@ import argparse
 import json
 from pathlib import Path
 
-from .errors import AdapterError
+from adapter.errors import AdapterError
 
 
 def fluke_amplitude(scene, cycles: int = 2) -> dict:
     """Dry-run ``cycles`` cycles without writing files; the summary (last cycle measured)."""
-    from .dryrun import run
+    from adapter.motion.dryrun import run
 
     return run(scene, Path("."), cycles=cycles, progress=False, write_files=False)
 
@@ -69,7 +69,7 @@ def calibrate(scene, max_iter: int = 8, log=print) -> tuple[object, dict]:
 
 
 def _length(scene) -> float:
-    from .geometry import build_surface
+    from adapter.body.geometry import build_surface
 
     if scene.geometry.source == "procedural":
         return scene.geometry.length_m
@@ -90,7 +90,7 @@ def register(subparsers) -> None:
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
-    from .scene import load_scene
+    from adapter.scene import load_scene
 
     scene = load_scene(args.scene, preset=args.preset)
     print(f"calibrating {scene.name}: fluke tip {scene.calibration.fluke_amplitude:g} L peak to "

@@ -29,8 +29,10 @@ import math
 
 import numpy as np
 
-from .integrators import METHODS
-from .stability import stable_dt
+from adapter.motion.animator import Animator
+from adapter.motion.dryrun import KEYPOINTS, keypoint_nodes
+from adapter.motion.integrators import METHODS
+from adapter.motion.stability import stable_dt
 
 CANDIDATE_NODES = (600, 1200, 2400, 5000, 11272)
 #: relative cost of one step, in force evaluations (backward Euler: a sparse LU, ~10)
@@ -40,16 +42,12 @@ STEP_COST = {"forward_euler": 1, "symplectic_euler": 1, "verlet": 2, "rk4": 4,
 
 def _trace(scene, nodes, method=None, dt=None):
     """Key-point displacements (8 samples over one half-stroke, (8, 4, 3)) of a whale."""
-    from .dryrun import KEYPOINTS, keypoint_nodes
-    from .numerics import _animator, set_step
-
-    a = _animator(scene, nodes)
-    set_step(a, method or "forward_euler", dt or a.integrator.dt)
+    a = Animator.with_integrator(scene, method or "forward_euler", dt, nodes=nodes)
     kp = keypoint_nodes(a.surface.landmarks)
     n = 2 * a.steps_per_quarter
     out = []
     for k in range(1, 9):
-        a._advance(k * n // 8)
+        a.advance_to(k * n // 8)
         d = a.X - a.rest
         out.append([d[kp[p]].mean(axis=0) for p in KEYPOINTS])
     return np.array(out), a
@@ -90,9 +88,7 @@ def choose(scene, tolerance_m: float, max_dt: float | None = None, fraction: flo
         why.append(f"{nodes} nodes: set by the user")
     # 2. method and step
     options = []
-    from .numerics import _animator
-
-    a = _animator(scene, nodes)
+    a = Animator.with_integrator(scene, nodes=nodes)
     for m in ([method] if method else (methods or list(METHODS))):
         limit = stable_dt(a.network, a.rest, m, free=a.dynamic)
         cap = min(scene.integrator.safety * limit, max_dt or np.inf, quarter)
@@ -142,7 +138,7 @@ def register(subparsers) -> None:
 
 
 def _cmd_choose(args: argparse.Namespace) -> int:
-    from .scene import load_scene
+    from adapter.scene import load_scene
 
     if args.flow_study:
         return _choose_flow_mesh(args)
@@ -163,8 +159,8 @@ def _choose_flow_mesh(args: argparse.Namespace) -> int:
     """``choose --flow-study DIR --tolerance F``: the flow mesh for a tolerance."""
     from pathlib import Path
 
-    from .errors import AdapterError
-    from .study import RESULT, choose_flow_mesh
+    from adapter.errors import AdapterError
+    from adapter.studies.study import RESULT, choose_flow_mesh
 
     if not args.tolerance or args.tolerance <= 0:
         raise AdapterError("choose --flow-study: give --tolerance, a fraction (0.05 = 5 %)")

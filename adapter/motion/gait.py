@@ -42,8 +42,8 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from .errors import SceneError
-from .scene import DATA_DIR
+from adapter.errors import SceneError
+from adapter.scene import DATA_DIR
 
 #: what happens to the velocities at the start of each quarter of the cycle ("negate" stroke)
 QUARTER_EVENTS = ("up", "negate", "down", "negate")

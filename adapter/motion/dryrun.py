@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .animator import Animator
-from .springs import momentum_rate
+from adapter.body.springs import momentum_rate
+from adapter.motion.animator import Animator
 
 KEYPOINTS = ("rostrum", "flipper", "tail_base", "fluke_tip")
 #: bins along the body for the amplitude envelope (amplitude_min_at)
@@ -136,7 +136,7 @@ def run(scene, out: Path, cycles: int | None = None, progress: bool = True,
         np.savetxt(out / "keypoints.csv", kp, delimiter=",", header=header, comments="",
                    fmt="%.9g")
         (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        from .render import plot_keypoints, render_frames
+        from adapter.reports.render import plot_keypoints, render_frames
 
         plot_keypoints(kp, KEYPOINTS, period, out / "keypoints.png")
         render_frames(surf, fig_states, out / "frames.png")
@@ -234,7 +234,7 @@ def _midline_nodes(surf, width: float = 0.02) -> np.ndarray:
 
 def surf_write(surf, path: Path, X: np.ndarray, d: np.ndarray, v: np.ndarray) -> None:
     """One frame: the deformed surface with displacement and velocity as point data."""
-    from .geometry import write_surface
+    from adapter.body.geometry import write_surface
 
     write_surface(path, X, surf.faces, point_data={"displacement": d, "velocity": v})
 
@@ -272,7 +272,7 @@ def register(subparsers) -> None:
 
 
 def _cmd_dry_run(args: argparse.Namespace) -> int:
-    from .scene import load_scene
+    from adapter.scene import load_scene
 
     scene = load_scene(args.scene, preset=args.preset)
     if args.cycles is not None and args.cycles < 1:

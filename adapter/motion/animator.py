@@ -15,8 +15,10 @@ import math
 
 import numpy as np
 
-from .errors import GeometryError, SceneError, UnstableError
-from .gait import (
+from adapter.body.geometry import build_surface
+from adapter.body.springs import network_from_edges, region_constants
+from adapter.errors import GeometryError, SceneError, UnstableError
+from adapter.motion.gait import (
     QUARTER_EVENTS,
     SmoothStroke,
     joint_bend,
@@ -27,10 +29,8 @@ from .gait import (
     smootherstep,
     velocity_profile,
 )
-from .geometry import build_surface
-from .integrators import make_integrator
-from .springs import network_from_edges, region_constants
-from .stability import stable_dt
+from adapter.motion.integrators import make_integrator
+from adapter.motion.stability import stable_dt
 
 #: half-width (fraction of L) of the band of body nodes just ahead of the tail base whose
 #: mean motion carries the fluke hinge
@@ -43,7 +43,7 @@ class Animator:
     Parameters
     ----------
     scene : :class:`~adapter.scene.Scene`.
-    surface : the :class:`~adapter.geometry.WhaleSurface` to animate (built from the scene if
+    surface : the :class:`~adapter.body.geometry.WhaleSurface` to animate (built from the scene if
         omitted).
     """
 
@@ -129,12 +129,44 @@ class Animator:
         )
         self.reset()
 
+    @classmethod
+    def with_integrator(cls, scene, method: str | None = None, dt: float | None = None,
+                        nodes: int | None = None, **springs) -> Animator:
+        """The whale of ``scene`` (with ``nodes`` surface nodes and the ``springs`` entries
+        changed, if given) run by ``method`` at the step nearest ``dt`` (s) that divides the
+        quarter stroke, with no stability check: for the studies.
+
+        Without ``method`` the whale runs forward Euler at its predicted step; without ``dt``
+        ``method`` runs at that step.
+        """
+        changes = {}
+        if nodes:
+            changes["geometry"] = {"nodes": nodes}
+        if springs:
+            changes["springs"] = springs
+        sc = scene.replace(**changes) if changes else scene
+        # a safe step for construction; set_integrator replaces it
+        a = cls(sc.replace(integrator={"method": "forward_euler", "dt_s": 0.0}))
+        if method is not None:
+            a.set_integrator(method, dt or a.integrator.dt)
+        return a
+
+    def set_integrator(self, method: str, dt: float) -> None:
+        """Run with the integrator ``method`` at the step nearest ``dt`` (s) that divides the
+        quarter stroke (no stability check: for the studies), and reset to t = 0."""
+        quarter = self.period / 4
+        self.steps_per_quarter = max(1, int(round(quarter / dt)))
+        self.dt = quarter / self.steps_per_quarter
+        self.integrator = make_integrator(method, self.network.forces, self.dt,
+                                          runaway=2.0 * self.surface.length, reference=self.rest,
+                                          stable_dt=self.stable_dt, network=self.network)
+        self.reset()
+
     # -- state ------------------------------------------------------------------------------
 
     def reset(self) -> None:
         """Back to t = 0: the flat equilibrium with the upward profile as velocity."""
-        self.integrator.status = "running"
-        self.integrator.n_steps = 0
+        self.integrator.restart(n_steps=0)
         self.step_index = 0
         self.X = self.rest.copy()
         self.V = np.zeros_like(self.rest)
@@ -157,7 +189,7 @@ class Animator:
         """Return to a state taken by :meth:`checkpoint` (of an animator of the same scene)."""
         if float(ckpt["dt"]) != self.dt or ckpt["X"].shape != self.X.shape:
             raise ValueError("the checkpoint belongs to another scene (step or node count differ)")
-        self.integrator.status = "running"
+        self.integrator.restart()
         self.step_index = int(ckpt["step_index"])
         self.X, self.V = ckpt["X"].copy(), ckpt["V"].copy()
         self.X_prev, self.V_prev = ckpt["X_prev"].copy(), ckpt["V_prev"].copy()
@@ -208,8 +240,9 @@ class Animator:
         angle = self.fluke_table(phase)
         return r * angle, r * self.fluke_table.rate(phase) / self.period + r_dot * angle
 
-    def _advance(self, n_target: int) -> None:
-        """March the state forward to internal step ``n_target``."""
+    def advance_to(self, n_target: int) -> None:
+        """March the state forward to internal step ``n_target`` (no step back: a smaller
+        target leaves the state as it is)."""
         while self.step_index < n_target:
             X, V = self.integrator.step(self.X, self.V)
             n = self.step_index + 1
@@ -236,7 +269,7 @@ class Animator:
                 f"t = {t} s is behind the animator (now at {self.time} s): it only marches "
                 "forward; restore a checkpoint or reset() to go back"
             )
-        self._advance(need)
+        self.advance_to(need)
         if m == self.step_index:
             return self.X, self.V
         # m == step_index - 1: between the previous and the current step

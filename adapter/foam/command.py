@@ -1,0 +1,121 @@
+"""The ``run-case`` command: prepare, mesh and run the case (:mod:`adapter.foam.case`), or the
+gliding + swimming pair of a scene that asks for it (:mod:`adapter.foam.swimrun`)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from adapter.coupling.server import resolve_token
+from adapter.errors import AdapterError
+from adapter.foam.case import (
+    CASE_RECORD,
+    SUMMARY,
+    format_summary,
+    mesh_case,
+    parsed_dict,
+    prepare_case,
+    read_record,
+    resume_time,
+    run_case,
+)
+from adapter.foam.swimrun import COST_ROWS, run_swim_and_glide
+from adapter.scene import load_scene
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "run-case",
+        help="prepare, mesh and run the OpenFOAM whale-in-channel case",
+        description="Prepare the case from the template (foam_case/) and the scene unless --case "
+        "already holds one, mesh it when it has no mesh, then run pimpleFoam with the "
+        "step-server and write adapter-summary.json.",
+    )
+    p.add_argument("--scene", help="scene TOML file (default: built-in default)")
+    p.add_argument("--preset", help="built-in preset: default, smoke, fine")
+    p.add_argument("--case", default=None, help="case folder (default: runs/<preset>)")
+    p.add_argument("--np", type=int, default=None, dest="ranks",
+                   help="MPI ranks (default: the scene's case.ranks)")
+    p.add_argument("--mesh-only", action="store_true", help="prepare and mesh, do not run")
+    p.add_argument("--static-whale", action="store_true",
+                   help="flow only: the whale does not move, no step-server or plugin needed")
+    p.add_argument("--host", default=None,
+                   help="the step-server listens on TCP at this host name or address (e.g. "
+                        "0.0.0.0 for every interface; published in the case's endpoint file) "
+                        "instead of the case's UNIX socket; a non-loopback host needs a token")
+    p.add_argument("--port", type=int, default=None,
+                   help="TCP port of the step-server (default 0: any free one)")
+    p.add_argument("--token-file", default=None, metavar="FILE",
+                   help="the shared secret, in a file only its owner may read (chmod 600); "
+                        "default $WHALE_ADAPTER_TOKEN. Never written into the case")
+    p.set_defaults(func=_cmd_run_case)
+
+
+def _cmd_run_case(args: argparse.Namespace) -> int:
+    if args.ranks is not None and args.ranks < 1:
+        raise AdapterError(f"--np: expected at least 1 rank, got {args.ranks}")
+    case = Path(args.case or Path("runs") / (args.preset or "default"))
+    exists = (case / "system" / "controlDict").exists()
+    if exists:
+        # refuses a folder not made by run-case before anything (blockMesh) touches it
+        record = read_record(case)
+        _check_same_case(case, record, args)
+        t0, control = resume_time(case), parsed_dict(case / "system" / "controlDict")
+        print(f"{case} already holds a case ({_recorded(record)}): "
+              f"continuing it from t = {t0:.6g} s")
+        if t0 >= float(control["endTime"]) - 0.5 * float(control["deltaT"]):
+            print(f"it has reached its end time ({float(control['endTime']):.6g} s): nothing to "
+                  "run (to run it longer, raise endTime in its system/controlDict)")
+    else:
+        scene = load_scene(args.scene, preset=args.preset)
+        params = prepare_case(scene, case, ranks=args.ranks, static_whale=args.static_whale,
+                              scene_file=args.scene)
+        print(f"prepared {case}: background {params.cells[0]}x{params.cells[1]}x{params.cells[2]}"
+              f" cells, smallest cell {params.smallest_cell_m:.3g} m, dt {params.delta_t:.4g} s,"
+              f" {params.n_steps} steps to t = {params.end_time:.4g} s")
+    if args.mesh_only or not (case / "constant" / "polyMesh" / "owner").exists():
+        info = mesh_case(case)
+        print(f"meshed {case}: {info.get('cells')} cells, whale patch {info.get('whale_faces')} "
+              f"faces / {info.get('whale_points')} points, max non-orthogonality "
+              f"{info.get('max_non_orthogonality')} deg, {info['mesh_s']} s")
+        if args.mesh_only:
+            return 0
+    record = read_record(case)
+    if record.get("gliding", False) and not record.get("static_whale"):
+        summary = run_swim_and_glide(case, record, float(record["periodic_tolerance"]),
+                                     ranks=args.ranks)
+        print(f"\n{case}: what swimming costs the whale")
+        print(format_summary(summary, COST_ROWS))
+        print(f"(all figures: {case / SUMMARY}; picture: {case / 'forces.png'})")
+        return 0
+    token = resolve_token(args.token_file)
+    summary = run_case(case, ranks=args.ranks, host=args.host, port=args.port, token=token)
+    print(format_summary(summary))
+    print(f"(all figures: {case / SUMMARY})")
+    return 0
+
+
+def _recorded(record: dict) -> str:
+    what = (f"scene {record['scene_file']}" if record.get("scene_file")
+            else f"preset {record.get('preset')}")
+    return what + (", static whale" if record.get("static_whale") else "")
+
+
+def _check_same_case(case: Path, record: dict, args: argparse.Namespace) -> None:
+    """A rerun may name the case's scene/preset again (make run-case does); refuse another."""
+    differs = []
+    if args.scene:
+        asked = str(Path(args.scene).resolve())
+        if asked != record.get("scene_file"):
+            differs.append(f"--scene {asked} (recorded: {_recorded(record)})")
+    if args.preset and (args.preset != record.get("preset")
+                        or (not args.scene and record.get("scene_file"))):
+        differs.append(f"--preset {args.preset} (recorded: {_recorded(record)})")
+    if args.static_whale and not record.get("static_whale"):
+        differs.append("--static-whale (recorded: a coupled, moving whale)")
+    if differs:
+        raise AdapterError(
+            f"{case} already holds a case of another set-up: {'; '.join(differs)} "
+            f"(from {case / CASE_RECORD}). Run it as it is with `whale-adapter run-case --case "
+            f"{case}` (no --scene/--preset), or prepare the new one in another --case "
+            f"(make run-case CASE=...), or remove {case} first")

@@ -1,0 +1,2 @@
+"""The studies: numerics (stable steps, orders), the chooser, calibration, the flow study and
+its grid-convergence index. May import every room below them."""

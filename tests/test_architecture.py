@@ -1,0 +1,284 @@
+"""The package's shape (docs/architecture.md), read from the source with ``ast``: the import
+graph of ``adapter.*`` (imports at module level and inside functions alike) has no cycle, each
+room imports only the rooms below it, and no module reaches into another's private names.
+
+Each checker is a plain function over ``{module name: source}``, so that the tests at the end
+can plant a cycle, an upward import or a private access in a small made-up package and see the
+checker catch it.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parent.parent / "adapter"
+
+#: the rooms, by module-name prefix (the longest prefix wins)
+ROOMS = {
+    "adapter": "front",                 # the package's public surface (__init__)
+    "adapter.cli": "front",
+    "adapter.errors": "base",
+    "adapter.scene": "base",
+    "adapter.resources": "base",
+    "adapter.body": "body",
+    "adapter.motion": "motion",
+    "adapter.coupling": "coupling",
+    "adapter.foam": "foam",
+    "adapter.studies": "studies",
+    "adapter.reports": "reports",
+}
+
+#: room -> the rooms it may import (besides itself); docs/architecture.md has the same table
+ALLOWED = {
+    "base": set(),
+    "body": {"base"},
+    "reports": {"base"},
+    "motion": {"base", "body", "reports"},
+    "coupling": {"base", "body", "motion"},
+    "foam": {"base", "body", "motion", "coupling", "reports"},
+    "studies": {"base", "body", "motion", "coupling", "foam", "reports"},
+    "front": {"base", "body", "motion", "coupling", "foam", "studies", "reports"},
+}
+
+#: state that only its own module writes (attribute -> owning module); others call a method
+OWNED_STATE = {
+    "status": "adapter.motion.integrators",      # Integrator.restart()
+    "n_steps": "adapter.motion.integrators",
+    "step_index": "adapter.motion.animator",     # Animator.reset(), restore(), advance_to()
+}
+
+
+# -- reading the package ----------------------------------------------------------------------
+
+def package_sources(root: Path = PACKAGE) -> dict[str, str]:
+    """{module name: source} of every Python file under ``root`` (packages as their name)."""
+    out = {}
+    for path in sorted(root.rglob("*.py")):
+        parts = list(path.relative_to(root.parent).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = path.read_text()
+    return out
+
+
+def _is_package(name: str, sources: dict[str, str]) -> bool:
+    return any(other.startswith(name + ".") for other in sources)
+
+
+def _absolute(module: str | None, level: int, name: str, sources) -> str:
+    """The absolute module name of ``from <level dots><module> import ...`` in ``name``."""
+    if level == 0:
+        return module or ""
+    base = name.split(".") if _is_package(name, sources) else name.split(".")[:-1]
+    base = base[: len(base) - (level - 1)]
+    return ".".join(base + ([module] if module else []))
+
+
+def imports(name: str, source: str, sources: dict[str, str]):
+    """(imported module, line, imported names, alias map) of every ``adapter`` import in
+    ``source``, at any depth (module level or inside functions)."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.split(".")[0] == "adapter":
+                    found.append((a.name, node.lineno, [], {a.asname or a.name: a.name}))
+        elif isinstance(node, ast.ImportFrom):
+            mod = _absolute(node.module, node.level, name, sources)
+            if mod.split(".")[0] != "adapter":
+                continue
+            for a in node.names:
+                sub = f"{mod}.{a.name}"
+                if sub in sources:      # `from adapter.body import springs`: the module
+                    found.append((sub, node.lineno, [], {a.asname or a.name: sub}))
+                else:
+                    found.append((mod, node.lineno, [a.name], {}))
+    return found
+
+
+def import_graph(sources: dict[str, str]) -> dict[str, set[str]]:
+    """module -> the ``adapter`` modules it imports (the nearest known module of each)."""
+    graph = {}
+    for name, source in sources.items():
+        edges = set()
+        for mod, _, _, _ in imports(name, source, sources):
+            while mod not in sources and "." in mod:
+                mod = mod.rsplit(".", 1)[0]
+            if mod != name:
+                edges.add(mod)
+        graph[name] = edges
+    return graph
+
+
+def room(module: str) -> str:
+    best = max((p for p in ROOMS if module == p or module.startswith(p + ".")), key=len)
+    return ROOMS[best]
+
+
+# -- the checks -----------------------------------------------------------------------------
+
+def find_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The import cycles (each as a closed path of modules), by depth-first search."""
+    cycles, state, path = [], {}, []
+
+    def visit(node):
+        state[node] = "open"
+        path.append(node)
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == "open":
+                cycles.append(path[path.index(nxt):] + [nxt])
+            elif nxt not in state:
+                visit(nxt)
+        path.pop()
+        state[node] = "done"
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node)
+    return cycles
+
+
+def room_violations(graph: dict[str, set[str]]) -> list[str]:
+    """Every import of a room that :data:`ALLOWED` does not give the importing room."""
+    bad = []
+    for mod, edges in sorted(graph.items()):
+        mine = room(mod)
+        for other in sorted(edges):
+            theirs = room(other)
+            if theirs != mine and theirs not in ALLOWED[mine]:
+                bad.append(f"{mod} ({mine}) imports {other} ({theirs})")
+    return bad
+
+
+def _defined_private(tree: ast.AST) -> set[str]:
+    """The private names a module defines: functions, classes, assigned names and attributes."""
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+            names.add(node.id)
+        elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
+            names.add(node.attr)
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str):
+            names.add(node.value)       # object.__setattr__(self, "_x", ...)
+    return {n for n in names if n.startswith("_")}
+
+
+def _private(attr: str) -> bool:
+    return attr.startswith("_") and not (attr.startswith("__") and attr.endswith("__"))
+
+
+def private_crossings(sources: dict[str, str]) -> list[str]:
+    """Private names used across module lines: ``from m import _x``, ``m._x`` of an imported
+    module ``m``, ``obj._x`` where this module does not define ``_x`` (another class's
+    private method or attribute), and a write of :data:`OWNED_STATE` outside its module."""
+    bad = []
+    for name, source in sorted(sources.items()):
+        tree = ast.parse(source)
+        aliases = {}
+        for mod, line, names, alias in imports(name, source, sources):
+            aliases.update(alias)
+            bad += [f"{name}:{line}: from {mod} import {n}" for n in names if _private(n)]
+        own = _defined_private(tree)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and _private(node.attr):
+                base = node.value
+                if isinstance(base, ast.Name) and base.id in aliases:
+                    bad.append(f"{name}:{node.lineno}: {aliases[base.id]}.{node.attr}")
+                elif not (isinstance(base, ast.Name) and base.id in ("self", "cls")) \
+                        and node.attr not in own:
+                    bad.append(f"{name}:{node.lineno}: {ast.unparse(node)} (defined elsewhere)")
+            if isinstance(node, (ast.Assign, ast.AugAssign, ast.AnnAssign)):
+                targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+                for t in targets:
+                    if isinstance(t, ast.Attribute) and t.attr in OWNED_STATE \
+                            and OWNED_STATE[t.attr] != name \
+                            and not (isinstance(t.value, ast.Name) and t.value.id == "self"):
+                        bad.append(f"{name}:{node.lineno}: writes {ast.unparse(t)}, the state "
+                                   f"of {OWNED_STATE[t.attr]}")
+    return bad
+
+
+# -- the package ----------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def sources():
+    return package_sources()
+
+
+def test_every_module_is_in_a_room(sources):
+    assert "adapter.motion.animator" in sources and "adapter.coupling.server" in sources
+    unknown = [m for m in sources if not any(m == p or m.startswith(p + ".") for p in ROOMS)]
+    assert not unknown
+
+
+def test_the_import_graph_has_no_cycle(sources):
+    assert find_cycles(import_graph(sources)) == []
+
+
+def test_each_room_imports_only_the_rooms_below_it(sources):
+    assert room_violations(import_graph(sources)) == []
+
+
+def test_no_private_name_crosses_a_module_line(sources):
+    assert private_crossings(sources) == []
+
+
+# -- the checks catch what they are for -----------------------------------------------------
+
+def _planted(**changes) -> dict[str, str]:
+    base = {
+        "adapter": "",
+        "adapter.errors": "",
+        "adapter.body": "",
+        "adapter.body.springs": "def edge_forces(): pass\ndef _kernel(): pass\n",
+        "adapter.motion": "",
+        "adapter.motion.integrators": "from adapter.body.springs import edge_forces\n"
+                                      "class I:\n    def _step(self): pass\n",
+        "adapter.motion.stability": "from adapter.motion.integrators import I\n",
+    }
+    base.update(changes)
+    return base
+
+
+def test_the_clean_plant_passes():
+    src = _planted()
+    graph = import_graph(src)
+    assert graph["adapter.motion.stability"] == {"adapter.motion.integrators"}
+    assert find_cycles(graph) == [] and room_violations(graph) == []
+    assert private_crossings(src) == []
+
+
+def test_a_cycle_hidden_in_a_function_is_caught():
+    src = _planted(**{"adapter.motion.integrators":
+                      "def f():\n    from adapter.motion.stability import g\n"})
+    src["adapter.motion.stability"] = "from . import integrators\n"     # relative, too
+    cycles = find_cycles(import_graph(src))
+    assert cycles and set(cycles[0]) == {"adapter.motion.integrators",
+                                         "adapter.motion.stability"}
+
+
+def test_an_upward_import_is_caught():
+    src = _planted(**{"adapter.body.springs": "import adapter.motion.integrators\n"})
+    assert room_violations(import_graph(src)) == [
+        "adapter.body.springs (body) imports adapter.motion.integrators (motion)"]
+
+
+@pytest.mark.parametrize("code, what", [
+    ("from adapter.body.springs import _kernel\n", "import _kernel"),
+    ("from adapter.body import springs\nx = springs._kernel\n", "springs._kernel"),
+    ("def f(integ):\n    return integ._step(1)\n", "integ._step"),
+    ("def f(integ):\n    integ.status = 'running'\n", "writes integ.status"),
+])
+def test_a_private_crossing_is_caught(code, what):
+    found = private_crossings(_planted(**{"adapter.motion.stability": code}))
+    assert len(found) == 1 and what in found[0]
+
+
+def test_a_module_may_use_its_own_private_names_on_other_objects():
+    code = "def f(proc):\n    proc._tag = 1\n    return proc._tag\n"
+    assert private_crossings(_planted(**{"adapter.motion.stability": code})) == []
