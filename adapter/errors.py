@@ -35,3 +35,7 @@ class ServerStartError(AdapterError, RuntimeError):
 
 class ParaViewError(AdapterError, RuntimeError):
     """ParaView (pvbatch, xvfb-run) is missing, or its script failed; the message says why."""
+
+
+class VTKFileError(AdapterError, ValueError):
+    """A VTK file (.vtp, .pvd) cannot be read: cut short or not what its name says."""

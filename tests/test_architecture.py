@@ -23,6 +23,7 @@ ROOMS = {
     "adapter.errors": "base",
     "adapter.scene": "base",
     "adapter.resources": "base",
+    "adapter.vtkfiles": "base",         # a leaf: imports only adapter.errors
     "adapter.body": "body",
     "adapter.motion": "motion",
     "adapter.coupling": "coupling",
@@ -222,6 +223,11 @@ def test_the_import_graph_has_no_cycle(sources):
 
 def test_each_room_imports_only_the_rooms_below_it(sources):
     assert room_violations(import_graph(sources)) == []
+
+
+def test_vtkfiles_is_a_leaf(sources):
+    """The one module for VTK files imports nothing from the adapter but its exceptions."""
+    assert import_graph(sources)["adapter.vtkfiles"] <= {"adapter.errors"}
 
 
 def test_no_private_name_crosses_a_module_line(sources):

@@ -930,7 +930,7 @@ def test_absurd_and_negative_times_are_refused_not_hung(tmp_path, smoke_scene):
     try:
         for t, words in ((1e300, "stroke cycles ahead"), (-1.0, "finite time >= 0")):
             with pytest.raises(wire.WireError, match=words):
-                srv._check_time(t, "REQUEST")
-        srv._check_time(10 * smoke_scene.period_s, "REQUEST")  # a long step is fine
+                srv.timeline.check_time(t, "REQUEST")
+        srv.timeline.check_time(10 * smoke_scene.period_s, "REQUEST")  # a long step is fine
     finally:
-        srv._cleanup()
+        srv.close()

@@ -399,7 +399,7 @@ def test_another_hosts_server_is_never_judged_stale(case, scene, animator):
     srv = StepServer(case, scene, animator=animator)
     srv.start()
     assert "unix " in (case / ".whale-adapter.endpoint").read_text()
-    srv._finish()
+    srv.finish()
 
 
 def test_token_file_must_be_private(tmp_path, monkeypatch):

@@ -31,6 +31,18 @@ HEADER_SIZE = HEADER.size  # 16
 
 _F64 = np.dtype("<f8")
 
+# --- the link's shared facts (the C++ client has the same: tests/test_shared_facts.py) -------
+
+#: the server's UNIX socket in the case folder
+SOCKET_NAME = ".whale-adapter.sock"
+#: where the server says it listens, in the case folder (read by the boundary condition)
+ENDPOINT_NAME = ".whale-adapter.endpoint"
+#: the environment variable holding the shared secret (never written into the case)
+TOKEN_ENV = "WHALE_ADAPTER_TOKEN"
+#: the boundary condition's defaults (s): keep retrying the connection for, wait for a reply
+CONNECT_TIMEOUT_S = 5.0
+REPLY_TIMEOUT_S = 120.0
+
 
 class MessageType(IntEnum):
     """Message types (u16 in the header)."""
