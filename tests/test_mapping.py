@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from adapter.body.geometry import build_surface
-from adapter.coupling import mapping
+from adapter.coupling import mapping, nearest
 from adapter.coupling.mapping import PatchMap, closest_point_weights
 from adapter.errors import GeometryError
 from adapter.scene import load_scene
@@ -149,8 +149,8 @@ def test_search_gives_the_brute_force_bits(surface):
 def test_chunks_and_threads_do_not_change_the_bits(surface, monkeypatch):
     pts = hard_points(surface, seed=9)
     whole = PatchMap.from_surface(pts, surface, tolerance=1e6)
-    monkeypatch.setattr(mapping, "_CHUNK", 7)
-    monkeypatch.setattr(mapping, "_workers", lambda: 2)
+    monkeypatch.setattr(nearest, "CHUNK", 7)
+    monkeypatch.setattr(nearest, "workers", lambda: 2)
     split = PatchMap.from_surface(pts, surface, tolerance=1e6)
     for name in ("triangle", "weights", "distance"):
         assert np.array_equal(getattr(whole, name), getattr(split, name)), name
@@ -159,13 +159,13 @@ def test_chunks_and_threads_do_not_change_the_bits(surface, monkeypatch):
 @pytest.fixture
 def count_searches(monkeypatch):
     calls = []
-    search = mapping._nearest
+    search = mapping.nearest_triangles
 
     def counted(pts, verts, tris):
         calls.append(len(pts))
         return search(pts, verts, tris)
 
-    monkeypatch.setattr(mapping, "_nearest", counted)
+    monkeypatch.setattr(mapping, "nearest_triangles", counted)
     return calls
 
 
