@@ -28,6 +28,7 @@ import psutil
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from adapter.coupling.listener import PID_NAME  # noqa: E402
 from adapter.foam import case as C  # noqa: E402
 from adapter.scene import load_scene  # noqa: E402
 
@@ -78,7 +79,7 @@ def soak(case: Path, steps: int = 1000, write_every: int = 50, interval: float =
     runner.start()
     samples = []                                  # (wall s, steps served, rss bytes)
     proc = None
-    pid_file = case / ".whale-adapter.pid"
+    pid_file = case / PID_NAME
     while runner.is_alive():
         if proc is None and pid_file.exists():
             try:

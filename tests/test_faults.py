@@ -29,7 +29,7 @@ from hypothesis import strategies as st
 from adapter.cli import build_parser
 from adapter.coupling import protocol as wire
 from adapter.coupling.mapping import PatchMap
-from adapter.coupling.protocol import HEADER, MAGIC, ErrorCode, MessageType
+from adapter.coupling.protocol import HEADER, MAGIC, SOCKET_NAME, ErrorCode, MessageType
 from adapter.coupling.server import StepServer
 from adapter.errors import AdapterError, GeometryError, SceneError
 from adapter.foam import case as C
@@ -232,7 +232,7 @@ def test_fuzzed_frames_never_crash_or_lie(case, serve, animator, points, truth):
         for data, _ in batch:
             count[0] += 1
             sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-            sock.connect(str(case / ".whale-adapter.sock"))
+            sock.connect(str(case / SOCKET_NAME))
             socks.append(sock)
             try:
                 sock.sendall(data)
@@ -282,7 +282,7 @@ def test_fuzzed_frames_never_crash_or_lie(case, serve, animator, points, truth):
     late.bye()
     srv.stop()
     assert finished(srv) == 0
-    assert not (case / ".whale-adapter.sock").exists()
+    assert not (case / SOCKET_NAME).exists()
 
 
 # --- version, second server, security --------------------------------------------------------
@@ -320,7 +320,7 @@ def _serve_cli(case: Path, *extra) -> subprocess.Popen:
 
 def _wait_for_socket(case: Path, proc: subprocess.Popen, timeout=90.0) -> None:
     deadline = time.monotonic() + timeout
-    while not (case / ".whale-adapter.sock").exists():
+    while not (case / SOCKET_NAME).exists():
         assert proc.poll() is None, proc.communicate()
         assert time.monotonic() < deadline, "the server made no socket"
         time.sleep(0.1)
@@ -355,7 +355,7 @@ def test_socket_is_private_whatever_the_umask(case, serve):
         srv = serve(case)
     finally:
         os.umask(old)
-    mode = (case / ".whale-adapter.sock").lstat().st_mode
+    mode = (case / SOCKET_NAME).lstat().st_mode
     assert stat.S_ISSOCK(mode) and stat.S_IMODE(mode) == 0o600
     srv.stop()
     finished(srv)
@@ -484,7 +484,7 @@ def test_bad_input_on_the_command_line_is_one_line_not_a_traceback(tmp_path, cas
                         "--scene", str(f)], capture_output=True, text=True, cwd=REPO, timeout=120)
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert r.stderr.startswith("whale-adapter serve: error: ") and re.search(message, r.stderr)
-    assert not (case / ".whale-adapter.sock").exists()
+    assert not (case / SOCKET_NAME).exists()
 
 
 @pytest.mark.parametrize("shift, tolerance", [((0.0, 0.0, 100.0), 0.05), ((0.0, 0.0, 1.0), 0.05),
@@ -766,7 +766,7 @@ def test_server_killed_mid_run(tmp_path, foam_case):
     assert rc != 0 and to_fatal < 10.0
     assert "FOAM FATAL ERROR" in text and "stepServer: REQUEST at time" in text, text[-2000:]
     assert re.search(r"did the server stop\?|the server closed the connection", text)
-    assert str(case / ".whale-adapter.sock") in text           # it names the server
+    assert str(case / SOCKET_NAME) in text           # it names the server
     assert _written(case) == before, "a written time changed or a partial one appeared"
     _resume_and_compare(case, reference, before)
 
@@ -797,7 +797,7 @@ def test_pimplefoam_killed_mid_run(tmp_path, foam_case):
                   r"t = ([0-9.e+-]+) s", out)
     assert m, out
     assert (case / "adapter" / f"state_{m.group(1)}.npz").is_file()
-    assert not (case / ".whale-adapter.sock").exists()
+    assert not (case / SOCKET_NAME).exists()
     before = _written(case)
     assert before and all(_complete(f) for f in before.values())
     _resume_and_compare(case, reference, before)

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from adapter.coupling.server import ENDPOINT_NAME, TOKEN_ENV
+from adapter.coupling.protocol import ENDPOINT_NAME, TOKEN_ENV
 from adapter.foam import case as C
 
 from .conftest import NEEDS_FOAM_AND_PLUGIN

@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 
 from adapter.coupling import protocol as wire
+from adapter.coupling.listener import PID_NAME
 from adapter.coupling.mapping import PatchMap
-from adapter.coupling.protocol import ErrorCode, MessageType
+from adapter.coupling.protocol import ENDPOINT_NAME, SOCKET_NAME, ErrorCode, MessageType
 from adapter.coupling.server import ServerStartError, StepServer, time_name
 from adapter.errors import UnstableError
 from adapter.motion.animator import Animator
@@ -100,7 +101,7 @@ def test_serves_mapped_animator_displacement(case, serve, animator, points, refe
     assert len(rows) == 1 + 7 and len(rows[1].split(",")) == 1 + 18 + 6
     first = np.array(rows[1].split(","), dtype=float)
     assert first[0] == TIMES[0] and first[-6:].tolist() == [1, 2, 3, 0.1, 0.2, 0.3]
-    assert not (case / ".whale-adapter.sock").exists()
+    assert not (case / SOCKET_NAME).exists()
 
 
 def test_one_link_per_case_whatever_the_rank_count(case, serve, animator, points):
@@ -287,7 +288,7 @@ def test_tcp_loopback(case, serve, points):
 
 def test_socket_is_private_and_a_second_server_is_refused(case, serve, scene, animator):
     srv = serve(case)
-    sock = case / ".whale-adapter.sock"
+    sock = case / SOCKET_NAME
     assert stat.S_IMODE(sock.stat().st_mode) == 0o600
     with pytest.raises(ServerStartError, match=f"pid {os.getpid()}"):
         StepServer(case, scene, animator=animator).start()
@@ -361,16 +362,16 @@ def test_endpoint_file_names_where_the_server_listens(case, serve, points):
     """UNIX only: the socket path; TCP: host and port (never the token); written by rename,
     removed at exit."""
     srv = serve(case)
-    text = (case / ".whale-adapter.endpoint").read_text()
-    assert f"unix {case / '.whale-adapter.sock'}\n" in text and f"pid {os.getpid()}\n" in text
+    text = (case / ENDPOINT_NAME).read_text()
+    assert f"unix {case / SOCKET_NAME}\n" in text and f"pid {os.getpid()}\n" in text
     Client(case).bye()
     srv.stop()
     finished(srv)
-    assert not (case / ".whale-adapter.endpoint").exists()
+    assert not (case / ENDPOINT_NAME).exists()
 
     srv = serve(case, tcp_port=0, host="localhost", token="s3cret")
     fields = dict(line.split(" ", 1) for line in
-                  (case / ".whale-adapter.endpoint").read_text().splitlines()
+                  (case / ENDPOINT_NAME).read_text().splitlines()
                   if not line.startswith("#"))
     assert fields["host"] == "localhost" and int(fields["port"]) == srv.tcp_address[1]
     assert "unix" not in fields and "s3cret" not in str(fields)
@@ -379,26 +380,26 @@ def test_endpoint_file_names_where_the_server_listens(case, serve, points):
     c.hello(points[:5], token="s3cret")
     c.bye()
     assert finished(srv) == 0
-    assert not (case / ".whale-adapter.endpoint").exists()
+    assert not (case / ENDPOINT_NAME).exists()
 
 
 def test_another_hosts_server_is_never_judged_stale(case, scene, animator):
     """A pid file from another host: this host cannot probe its socket nor its pid, so the
     start is refused naming that host, and its socket and endpoint are left alone."""
-    (case / ".whale-adapter.pid").write_text("4242 node-elsewhere\n")
-    (case / ".whale-adapter.endpoint").write_text("host node-elsewhere\nport 4000\n")
+    (case / PID_NAME).write_text("4242 node-elsewhere\n")
+    (case / ENDPOINT_NAME).write_text("host node-elsewhere\nport 4000\n")
     stale_looking = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    stale_looking.bind(str(case / ".whale-adapter.sock"))          # refuses connections here
+    stale_looking.bind(str(case / SOCKET_NAME))          # refuses connections here
     stale_looking.close()
     with pytest.raises(ServerStartError, match="on host node-elsewhere .pid 4242."):
         StepServer(case, scene, animator=animator).start()
-    for name in (".whale-adapter.pid", ".whale-adapter.endpoint", ".whale-adapter.sock"):
+    for name in (PID_NAME, ENDPOINT_NAME, SOCKET_NAME):
         assert (case / name).exists(), name
     # the same host's pid file: the dead socket is judged stale and replaced
-    (case / ".whale-adapter.pid").write_text(f"4242 {socket.gethostname()}\n")
+    (case / PID_NAME).write_text(f"4242 {socket.gethostname()}\n")
     srv = StepServer(case, scene, animator=animator)
     srv.start()
-    assert "unix " in (case / ".whale-adapter.endpoint").read_text()
+    assert "unix " in (case / ENDPOINT_NAME).read_text()
     srv.finish()
 
 

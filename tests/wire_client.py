@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from adapter.coupling import protocol as wire
-from adapter.coupling.protocol import MessageType
+from adapter.coupling.protocol import SOCKET_NAME, MessageType
 from adapter.coupling.server import StepServer
 
 
@@ -28,7 +28,7 @@ class Client:
     def __init__(self, case: Path | None = None, address=None):
         if address is None:
             self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-            self.sock.connect(str(case / ".whale-adapter.sock"))
+            self.sock.connect(str(case / SOCKET_NAME))
         else:
             self.sock = socket.create_connection(address, timeout=20)
         self.seq = 0

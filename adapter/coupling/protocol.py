@@ -40,8 +40,8 @@ ENDPOINT_NAME = ".whale-adapter.endpoint"
 #: the environment variable holding the shared secret (never written into the case)
 TOKEN_ENV = "WHALE_ADAPTER_TOKEN"
 #: the boundary condition's defaults (s): keep retrying the connection for, wait for a reply
-CONNECT_TIMEOUT_S = 5.0
-REPLY_TIMEOUT_S = 120.0
+CONNECT_TIMEOUT_S = 5
+REPLY_TIMEOUT_S = 120
 
 
 class MessageType(IntEnum):

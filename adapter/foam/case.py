@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from adapter import resources
+from adapter.coupling.protocol import CONNECT_TIMEOUT_S, REPLY_TIMEOUT_S
 from adapter.errors import AdapterError, SolverRunError
 from adapter.foam.yplus import time_dirs
 
@@ -47,7 +48,6 @@ FOAM_DIR = "/usr/share/openfoam"
 #: what prepare_case records about the case (scene, derived numbers, mesh)
 CASE_RECORD = "adapter-case.json"
 SUMMARY = "adapter-summary.json"
-SOCKET_NAME = ".whale-adapter.sock"
 #: the regions surface the loads function object reads (constant/triSurface/)
 REGIONS_STL = "whale_regions.stl"
 #: inflow turbulence: intensity and free-stream eddy-viscosity ratio
@@ -421,8 +421,8 @@ def _write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool
             "type": "stepServerDisplacement",
             # no socket/port: the master rank reads <case>/.whale-adapter.endpoint, where the
             # server says it listens (UNIX socket or TCP); no token (the environment's)
-            "connectTimeout": 10,
-            "replyTimeout": 120,
+            "connectTimeout": CONNECT_TIMEOUT_S,
+            "replyTimeout": REPLY_TIMEOUT_S,
             "rhoInf": scene.flow.rho_kg_m3,
             "value": "uniform (0 0 0)",
         }
@@ -783,7 +783,7 @@ def _start_server(case: Path, record: dict, timeout: float = 60.0, host: str | N
                   port: int | None = None, token: str | None = None) -> subprocess.Popen:
     """Start the step-server; return once it has published its endpoint file. TCP when a host
     or a port is given. The token goes through the environment, never the command line."""
-    from adapter.coupling.server import ENDPOINT_NAME, TOKEN_ENV
+    from adapter.coupling.protocol import ENDPOINT_NAME, TOKEN_ENV
 
     endpoint = case / ENDPOINT_NAME
     log = open(case / "log.server", "w")  # noqa: SIM115 - closed by _stop_server
@@ -893,7 +893,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     end_time = float(control["endTime"])
     if start_time >= end_time - 0.5 * float(control["deltaT"]):
         return _finished(case, record, ranks, from_ranks, t_start)
-    from adapter.coupling.server import TOKEN_ENV
+    from adapter.coupling.protocol import TOKEN_ENV
 
     token = token or os.environ.get(TOKEN_ENV) or None
     env = foam_env()

@@ -20,14 +20,14 @@ const char* wire::typeName(std::uint16_t t)
 {
     switch (t)
     {
-        case stepServerClient::HELLO: return "HELLO";
-        case stepServerClient::WELCOME: return "WELCOME";
-        case stepServerClient::REQUEST: return "REQUEST";
-        case stepServerClient::DISPLACEMENT: return "DISPLACEMENT";
-        case stepServerClient::WRITE: return "WRITE";
-        case stepServerClient::ACK: return "ACK";
-        case stepServerClient::BYE: return "BYE";
-        case stepServerClient::ERROR: return "ERROR";
+        case HELLO: return "HELLO";
+        case WELCOME: return "WELCOME";
+        case REQUEST: return "REQUEST";
+        case DISPLACEMENT: return "DISPLACEMENT";
+        case WRITE: return "WRITE";
+        case ACK: return "ACK";
+        case BYE: return "BYE";
+        case ERROR: return "ERROR";
         default: return "unknown";
     }
 }
@@ -71,8 +71,11 @@ std::uint32_t stepServerClient::sendFrame
         );
     }
     std::vector<unsigned char> buf;
-    buf.reserve(16 + payload.size());
-    buf.push_back('W'); buf.push_back('H'); buf.push_back('A'); buf.push_back('L');
+    buf.reserve(headerSize + payload.size());
+    for (std::size_t i = 0; i < 4; ++i)
+    {
+        buf.push_back(magic[i]);
+    }
     putU16(buf, version);
     putU16(buf, type);
     putU32(buf, std::uint32_t(payload.size()));
@@ -91,18 +94,18 @@ std::vector<unsigned char> stepServerClient::recvReply
     const char* what
 )
 {
-    unsigned char h[16];
-    recvAll(h, 16);
+    unsigned char h[headerSize];
+    recvAll(h, headerSize);
 
     const std::string ctx = std::string(" in reply to ") + what;
-    if (std::memcmp(h, "WHAL", 4) != 0)
+    if (std::memcmp(h, magic, 4) != 0)
     {
         fail("malformed reply" + ctx + ": bad magic");
     }
-    const std::uint16_t ver = getU16(h + 4);
-    const std::uint16_t type = getU16(h + 6);
-    const std::uint32_t len = getU32(h + 8);
-    const std::uint32_t rseq = getU32(h + 12);
+    const std::uint16_t ver = getU16(h + versionAt);
+    const std::uint16_t type = getU16(h + typeAt);
+    const std::uint32_t len = getU32(h + lengthAt);
+    const std::uint32_t rseq = getU32(h + seqAt);
 
     if (len > maxPayload)
     {

@@ -1,6 +1,6 @@
 /*---------------------------------------------------------------------------*\
     stepServerDisplacementPointPatchVectorField: the one link per case.
-    connect(): every rank's undeformed patch points gathered on the master,
+    endpoint(): where to connect, from the entries. connect(): every rank's undeformed patch points gathered on the master,
     which connects and sends them all in one HELLO. exchange(): the master's
     REQUEST, each rank's slice of the DISPLACEMENT sent back to it. Ranks
     without whale points take part in the collective calls only.
@@ -21,6 +21,39 @@
 
 namespace Foam
 {
+
+stepServer::Endpoint
+stepServerDisplacementPointPatchVectorField::endpoint() const
+{
+    stepServer::Endpoint ep;
+    if (port_ > 0)
+    {
+        ep.host = host_;
+        ep.port = int(port_);
+    }
+    else if (!socket_.empty())
+    {
+        fileName s(socket_);
+        s.expand();
+        ep.socketPath = s;
+    }
+    else if (!endpointFile_.empty())
+    {
+        fileName f(endpointFile_);
+        f.expand();
+        ep.endpointFile = f;
+    }
+    else
+    {
+        // The global case's endpoint file, as the server writes it
+        ep.endpointFile =
+            this->db().time().globalPath()/stepServer::defaults::endpointFile;
+    }
+    ep.connectTimeout = connectTimeout_;
+    ep.replyTimeout = replyTimeout_;
+    return ep;
+}
+
 
 void stepServerDisplacementPointPatchVectorField::connect()
 {
@@ -91,7 +124,7 @@ void stepServerDisplacementPointPatchVectorField::connect()
     {
         // The token from the environment only: never from (or into) a
         // file of the case
-        const char* token = std::getenv("WHALE_ADAPTER_TOKEN");
+        const char* token = std::getenv(stepServer::defaults::tokenEnv);
         w = state_->client->hello
         (
             Pstream::nProcs(), token ? std::string(token) : std::string(), pts

@@ -29,6 +29,8 @@
 namespace Foam
 {
 
+namespace defaults = stepServer::defaults;
+
 // * * * * * * * * * * * * * Private Member Functions  * * * * * * * * * * * //
 
 void stepServerDisplacementPointPatchVectorField::readEntries
@@ -40,8 +42,10 @@ void stepServerDisplacementPointPatchVectorField::readEntries
     host_ = dict.getOrDefault<string>("host", "127.0.0.1");
     port_ = dict.getOrDefault<label>("port", 0);
     endpointFile_ = dict.getOrDefault<fileName>("endpoint", fileName::null);
-    connectTimeout_ = dict.getOrDefault<scalar>("connectTimeout", 5);
-    replyTimeout_ = dict.getOrDefault<scalar>("replyTimeout", 120);
+    connectTimeout_ =
+        dict.getOrDefault<scalar>("connectTimeout", defaults::connectTimeout);
+    replyTimeout_ =
+        dict.getOrDefault<scalar>("replyTimeout", defaults::replyTimeout);
     rhoInf_ = dict.getOrDefault<scalar>("rhoInf", 1025);
 
     if (dict.found("port") && (port_ < 1 || port_ > 65535))
@@ -66,7 +70,7 @@ void stepServerDisplacementPointPatchVectorField::readEntries
         FatalIOErrorInFunction(dict)
             << "stepServer: a 'token' entry is not read (it would be written"
             << " into every time folder): remove it and set the environment"
-            << " variable WHALE_ADAPTER_TOKEN for the master rank instead"
+            << " variable " << defaults::tokenEnv << " for the master rank instead"
             << exit(FatalIOError);
     }
     if (dict.found("host") && !dict.found("port"))
@@ -87,39 +91,6 @@ void stepServerDisplacementPointPatchVectorField::readEntries
             << "stepServer: rhoInf " << rhoInf_ << " must be > 0 (kg/m3)"
             << exit(FatalIOError);
     }
-}
-
-
-stepServer::Endpoint
-stepServerDisplacementPointPatchVectorField::endpoint() const
-{
-    stepServer::Endpoint ep;
-    if (port_ > 0)
-    {
-        ep.host = host_;
-        ep.port = int(port_);
-    }
-    else if (!socket_.empty())
-    {
-        fileName s(socket_);
-        s.expand();
-        ep.socketPath = s;
-    }
-    else if (!endpointFile_.empty())
-    {
-        fileName f(endpointFile_);
-        f.expand();
-        ep.endpointFile = f;
-    }
-    else
-    {
-        // The global case's endpoint file, as the server writes it
-        ep.endpointFile =
-            this->db().time().globalPath()/".whale-adapter.endpoint";
-    }
-    ep.connectTimeout = connectTimeout_;
-    ep.replyTimeout = replyTimeout_;
-    return ep;
 }
 
 
@@ -184,8 +155,8 @@ stepServerDisplacementPointPatchVectorField
     host_("127.0.0.1"),
     port_(0),
     endpointFile_(),
-    connectTimeout_(5),
-    replyTimeout_(120),
+    connectTimeout_(defaults::connectTimeout),
+    replyTimeout_(defaults::replyTimeout),
     rhoInf_(1025),
     state_(std::make_shared<couplingState>())
 {}
@@ -201,8 +172,8 @@ stepServerDisplacementPointPatchVectorField
 :
     fixedValuePointPatchField<vector>(p, iF, dict, false),
     port_(0),
-    connectTimeout_(5),
-    replyTimeout_(120),
+    connectTimeout_(defaults::connectTimeout),
+    replyTimeout_(defaults::replyTimeout),
     rhoInf_(1025),
     state_(std::make_shared<couplingState>())
 {
