@@ -56,7 +56,7 @@ def bench(animator, scene, n_points, steps, flow_dt, solve_s):
         th = threading.Thread(target=srv.run, daemon=True)
         th.start()
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-        sock.connect(str(srv.socket_path))
+        sock.connect(str(srv.listener.socket_path))
         t0 = time.perf_counter()
         call(sock, 1, MessageType.HELLO, wire.pack_hello(1, sample_points(animator.surface,
                                                                              n_points)))

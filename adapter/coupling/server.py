@@ -43,10 +43,9 @@ from adapter.coupling.protocol import (
     SOCKET_NAME,
     TOKEN_ENV,
     ErrorCode,
-    WireError,
 )
 from adapter.coupling.recorder import FORCE_COLUMNS, Recorder, ServerStats
-from adapter.coupling.session import Session
+from adapter.coupling.session import Links, Session
 from adapter.coupling.store import StateStore, fingerprint, time_name
 from adapter.coupling.timeline import MAX_JUMP_CYCLES, Timeline
 from adapter.errors import ServerStartError
@@ -110,9 +109,7 @@ class StepServer:
         self.timeline: Timeline | None = None
         self.recorder: Recorder | None = None
         self.store: StateStore | None = None
-        self._lock = threading.Lock()        # the sessions and the failure time
-        self._sessions: set[Session] = set()
-        self._threads: list[threading.Thread] = []
+        self.links = Links(self.case_dir, self.stats_counter)
         self._fatal_at = 0.0
         self._vanished = False
         self._stop = threading.Event()
@@ -196,8 +193,7 @@ class StepServer:
                     except OSError:
                         continue
                     self._accept(sock, addr)
-                with self._lock:
-                    active = sum(1 for s in self._sessions if s.linked)
+                active = len(self.links.linked())
                 seen = self.stats_counter.links
                 if self.timeline.failure is not None:
                     if active == 0 or time.monotonic() - self._fatal_at > _FATAL_GRACE_S:
@@ -222,12 +218,7 @@ class StepServer:
         """End the run: close the sockets, save the state if the client vanished, write the
         statistics, remove the socket, pid and endpoint files."""
         self.listener.close()
-        with self._lock:
-            sessions = list(self._sessions)
-        for s in sessions:
-            s.shutdown()
-        for t in list(self._threads):
-            t.join(timeout=5)
+        self.links.close()
         timeline = self.timeline
         timeline.join(timeout=30)
         last = timeline.last
@@ -260,52 +251,20 @@ class StepServer:
         if sock.family != socket.AF_UNIX:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         peer = f"{addr[0]}:{addr[1]}" if isinstance(addr, tuple) else "unix"
-        session = Session(sock, peer, self)
-        with self._lock:
-            self._sessions.add(session)
-        thread = threading.Thread(target=session.serve, daemon=True, name=f"step-server {peer}")
-        self._threads = [t for t in self._threads if t.is_alive()] + [thread]
-        thread.start()
-
-    def drop(self, session: Session) -> None:
-        """Forget a session (its connection is closing)."""
-        with self._lock:
-            self._sessions.discard(session)
+        self.links.start(Session(sock, peer, self))
 
     def client_vanished(self, session: Session, why: str) -> None:
         """A linked client went away without BYE: the state is saved at the end."""
         log.warning("client %s %s", session.peer, why)
         self._vanished = True
 
-    def check_free(self, session: Session) -> None:
-        """One link per case: ERROR 7 while another client that said HELLO is connected."""
-        with self._lock:
-            self._check_free(session)
-
-    def _check_free(self, session: Session) -> None:
-        other = next((s for s in self._sessions if s is not session and s.linked), None)
-        if other is not None:
-            raise WireError(ErrorCode.BUSY,
-                            f"server busy: {self.case_dir} is already served to a client "
-                            f"({other.peer}, {other.n_ranks} rank(s)); one link per case: is "
-                            f"another run using this case?")
-
-    def claim_link(self, session: Session, n_ranks: int, patch) -> None:
-        """Give ``session`` (its patch mapped) the case's one link, if still free."""
-        with self._lock:
-            self._check_free(session)
-            session.n_ranks = n_ranks
-            session.patch = patch
-            self.stats_counter.add_link(n_ranks, patch.n_points, patch.max_distance)
-
     def model_failed(self, message: str, session: Session, seq: int) -> None:
         """The whale blew up: every linked client gets ERROR 6, and the run ends."""
-        with self._lock:
-            if self.timeline.fail(message):
-                self._fatal_at = time.monotonic()
-                log.error("model failure: %s", message)
-                print(f"whale-adapter serve: model failure: {message}", flush=True)
-            others = [s for s in self._sessions if s is not session and s.linked]
+        if self.timeline.fail(message):
+            self._fatal_at = time.monotonic()
+            log.error("model failure: %s", message)
+            print(f"whale-adapter serve: model failure: {message}", flush=True)
+        others = self.links.linked(but=session)
         failure = self.timeline.failure
         session.send_error(ErrorCode.MODEL_FAILURE, failure, seq)
         for s in others:

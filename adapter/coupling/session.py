@@ -32,9 +32,9 @@ class Session:
     ----------
     sock : the connected socket (blocking).
     peer : the client's name for the log (``host:port`` or ``unix``).
-    server : the server it belongs to: its ``animator``, ``timeline``, ``recorder``,
-        ``stats_counter``, ``token``, ``map_tolerance`` and ``map_cache``, and ``check_free``,
-        ``claim_link``, ``write``, ``model_failed``, ``drop``, ``client_vanished``.
+    server : the server it belongs to: its ``animator``, ``timeline``, ``recorder``, ``links``
+        (:class:`Links`), ``stats_counter``, ``token``, ``map_tolerance`` and ``map_cache``,
+        and ``write``, ``model_failed``, ``client_vanished``.
     """
 
     def __init__(self, sock: socket.socket, peer: str, server):
@@ -101,17 +101,17 @@ class Session:
                 server.client_vanished(self, "closed the connection without BYE")
         except WireError as exc:
             log.warning("client %s: %s", self.peer, exc)
-            server.drop(self)            # before the ERROR: the client may reconnect at once
+            server.links.drop(self)            # before the ERROR: the client may reconnect at once
             self.send_error(exc.code, str(exc), seq)
         except OSError as exc:
             if self.linked and not self.said_bye and not self.error_sent:
                 server.client_vanished(self, f"connection lost ({exc})")
         except Exception as exc:      # never let one client bring the server down
             log.exception("client %s: internal error", self.peer)
-            server.drop(self)
+            server.links.drop(self)
             self.send_error(ErrorCode.BAD_FRAME, f"internal server error: {exc}", seq)
         finally:
-            server.drop(self)
+            server.links.drop(self)
             try:
                 self.sock.close()
             except OSError:
@@ -153,7 +153,7 @@ class Session:
             raise WireError(ErrorCode.BAD_TOKEN,
                             f"the client sent {what}; set {TOKEN_ENV} for OpenFOAM's "
                             f"master rank to the token the server was started with")
-        server.check_free(self)
+        server.links.check_free(self)
         surface = server.animator.surface
         t0 = time.perf_counter()
         try:
@@ -161,7 +161,7 @@ class Session:
                              server.map_tolerance, cache=server.map_cache)
         except GeometryError as exc:
             raise WireError(ErrorCode.BAD_HELLO, f"bad HELLO: {exc}") from None
-        server.claim_link(self, hello.n_ranks, patch)
+        server.links.claim(self, hello.n_ranks, patch)
         log.info("link %s for %d rank(s): %d patch points, max mapping distance %.3g m "
                  "(map %s in %.2f s)", self.peer, hello.n_ranks, patch.n_points,
                  patch.max_distance, patch.cache_status or "computed",
@@ -196,3 +196,70 @@ class Session:
         log.debug("%s t=%s compute %.3g ms send %.3g ms", self.peer, time_name(t),
                   1e3 * (t_ready - t_start), 1e3 * send_s)
         return True
+
+
+class Links:
+    """The open connections of one server, each served by its own thread, and the case's one
+    link among them (the session that said HELLO).
+
+    Parameters
+    ----------
+    case_dir : the case served (for the busy message).
+    stats : the server's :class:`~adapter.coupling.recorder.ServerStats` (links counted).
+    """
+
+    def __init__(self, case_dir, stats):
+        self.case_dir = case_dir
+        self.stats = stats
+        self._lock = threading.Lock()
+        self._sessions: set[Session] = set()
+        self._threads: list[threading.Thread] = []
+
+    def start(self, session: Session) -> None:
+        """Serve ``session`` in a thread of its own."""
+        with self._lock:
+            self._sessions.add(session)
+        thread = threading.Thread(target=session.serve, daemon=True,
+                                  name=f"step-server {session.peer}")
+        self._threads = [t for t in self._threads if t.is_alive()] + [thread]
+        thread.start()
+
+    def drop(self, session: Session) -> None:
+        """Forget a session (its connection is closing)."""
+        with self._lock:
+            self._sessions.discard(session)
+
+    def linked(self, but: Session | None = None) -> list[Session]:
+        """The sessions that said HELLO (but ``but``)."""
+        with self._lock:
+            return [s for s in self._sessions if s is not but and s.linked]
+
+    def check_free(self, session: Session) -> None:
+        """One link per case: ERROR 7 while another client that said HELLO is connected."""
+        with self._lock:
+            self._check_free(session)
+
+    def _check_free(self, session: Session) -> None:
+        other = next((s for s in self._sessions if s is not session and s.linked), None)
+        if other is not None:
+            raise WireError(ErrorCode.BUSY,
+                            f"server busy: {self.case_dir} is already served to a client "
+                            f"({other.peer}, {other.n_ranks} rank(s)); one link per case: is "
+                            f"another run using this case?")
+
+    def claim(self, session: Session, n_ranks: int, patch) -> None:
+        """Give ``session`` (its patch mapped) the case's one link, if still free."""
+        with self._lock:
+            self._check_free(session)
+            session.n_ranks = n_ranks
+            session.patch = patch
+            self.stats.add_link(n_ranks, patch.n_points, patch.max_distance)
+
+    def close(self, timeout: float = 5.0) -> None:
+        """Wake every session's thread (its socket shut down) and wait for it."""
+        with self._lock:
+            sessions = list(self._sessions)
+        for s in sessions:
+            s.shutdown()
+        for t in list(self._threads):
+            t.join(timeout=timeout)

@@ -163,9 +163,10 @@ class Timeline:
 
     def fail(self, message: str) -> bool:
         """Mark the model failed (nothing is computed after); True the first time."""
-        first = self.failure is None
-        if first:
-            self.failure = message
+        with self._cache_lock:
+            first = self.failure is None
+            if first:
+                self.failure = message
         return first
 
     def join(self, timeout: float = 30.0) -> None:
