@@ -193,7 +193,7 @@ class Case:
     #: snappyHexMesh prism layers on the whale (0: none), the first (wall) layer's absolute
     #: thickness (m) and the thickness ratio of neighbouring layers
     layers: int = field(default=3, metadata={"check": lambda v: 0 <= v <= 20})
-    first_layer_m: float = field(default=0.008, metadata={"check": _positive})
+    first_layer_m: float = field(default=0.007, metadata={"check": _positive})
     layer_expansion: float = field(default=1.5, metadata={"check": lambda v: 1.0 <= v <= 3.0})
     #: how the mesh follows the whale: "blended" (whaleBlendedDisplacement: every point's
     #: displacement a fixed weighted sum of its nearest whale points', faded out between
