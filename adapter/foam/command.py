@@ -1,5 +1,6 @@
-"""The ``run-case`` command: prepare, mesh and run the case (:mod:`adapter.foam.case`), or the
-gliding + swimming pair of a scene that asks for it (:mod:`adapter.foam.swimrun`)."""
+"""The ``run-case`` command: prepare, mesh and run the case (:mod:`adapter.foam.case`,
+:mod:`adapter.foam.mesh`, :mod:`adapter.foam.run`), or the gliding + swimming pair of a scene
+that asks for it (:mod:`adapter.foam.swimrun`)."""
 
 from __future__ import annotations
 
@@ -7,18 +8,13 @@ import argparse
 from pathlib import Path
 
 from adapter.coupling.server import resolve_token
-from adapter.errors import AdapterError
-from adapter.foam.case import (
-    CASE_RECORD,
-    SUMMARY,
-    format_summary,
-    mesh_case,
-    parsed_dict,
-    prepare_case,
-    read_record,
-    resume_time,
-    run_case,
-)
+from adapter.errors import CaseError
+from adapter.foam.case import CASE_RECORD, prepare_case, read_record
+from adapter.foam.dictionaries import parsed_dict
+from adapter.foam.folders import resume_time
+from adapter.foam.mesh import mesh_case
+from adapter.foam.run import run_case
+from adapter.foam.summary import SUMMARY, format_summary
 from adapter.foam.swimrun import COST_ROWS, run_swim_and_glide
 from adapter.scene import load_scene
 
@@ -53,7 +49,7 @@ def register(subparsers) -> None:
 
 def _cmd_run_case(args: argparse.Namespace) -> int:
     if args.ranks is not None and args.ranks < 1:
-        raise AdapterError(f"--np: expected at least 1 rank, got {args.ranks}")
+        raise CaseError(f"--np: expected at least 1 rank, got {args.ranks}")
     case = Path(args.case or Path("runs") / (args.preset or "default"))
     exists = (case / "system" / "controlDict").exists()
     if exists:
@@ -114,7 +110,7 @@ def _check_same_case(case: Path, record: dict, args: argparse.Namespace) -> None
     if args.static_whale and not record.get("static_whale"):
         differs.append("--static-whale (recorded: a coupled, moving whale)")
     if differs:
-        raise AdapterError(
+        raise CaseError(
             f"{case} already holds a case of another set-up: {'; '.join(differs)} "
             f"(from {case / CASE_RECORD}). Run it as it is with `whale-adapter run-case --case "
             f"{case}` (no --scene/--preset), or prepare the new one in another --case "

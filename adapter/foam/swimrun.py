@@ -23,9 +23,13 @@ import math
 import shutil
 from pathlib import Path
 
-from adapter.errors import AdapterError
+from adapter.errors import CaseError
 from adapter.foam import loads as ld
-from adapter.foam.case import SUMMARY, parsed_dict, read_record, run_case, time_dirs, write_json
+from adapter.foam.case import read_record, write_json
+from adapter.foam.dictionaries import parsed_dict
+from adapter.foam.folders import time_dirs
+from adapter.foam.run import run_case
+from adapter.foam.summary import SUMMARY
 
 GLIDING = "gliding"
 
@@ -78,8 +82,8 @@ def run_swim_and_glide(case: Path, scene_record: dict, tolerance: float, ranks=N
     g_summary = _run_unless_done(glide, ranks, progress, glide_steady)
     g_stats = _stats(glide, period, period)
     if g_stats is None or not len(g_stats.starts):
-        raise AdapterError(f"the gliding run {glide} wrote no complete stroke period of loads; "
-                           "raise case.cycles")
+        raise CaseError(f"the gliding run {glide} wrote no complete stroke period of loads; "
+                        "raise case.cycles")
     drag = float(g_stats.mean_fx[-1])
 
     def swim_periodic(c):
@@ -135,8 +139,8 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
     data = ld.read_loads(case)
     st = ld.cycle_stats(data["Time"], data["total:Fx"], data["total:P"], period, ramp)
     if not len(st.starts):
-        raise AdapterError(f"{case}: no complete stroke cycle after the start-up; raise "
-                           "case.cycles")
+        raise CaseError(f"{case}: no complete stroke cycle after the start-up; raise "
+                        "case.cycles")
     dfx, dp = ld.periodic_change(st, drag)
     window = (st.starts[-1], st.starts[-1] + period)
     t = data["Time"]
