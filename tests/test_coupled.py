@@ -105,7 +105,7 @@ def _expected(case, smoke, surface, t) -> np.ndarray:
 def test_coupled_smoke_run_and_restart(tmp_path, meshed, smoke, surface, ranks):
     case = tmp_path / "case"
     shutil.copytree(meshed, case)
-    summary = R.run_case(case, ranks=ranks, progress=False)
+    summary = R.run_case(case, ranks=ranks, progress=False, reconstruct=True)
     record = C.read_record(case)
     assert summary["steps"] == record["parameters"]["n_steps"]
     assert summary["ranks"] == ranks
@@ -131,7 +131,7 @@ def test_coupled_smoke_run_and_restart(tmp_path, meshed, smoke, surface, ranks):
     again = tmp_path / "restart"
     shutil.copytree(case, again, ignore=shutil.ignore_patterns("processor*"))
     shutil.rmtree(again / last.name)
-    R.run_case(again, ranks=ranks, progress=False)
+    R.run_case(again, ranks=ranks, progress=False, reconstruct=True)
     assert F.time_dirs(again)[-1][0] == t_last
     np.testing.assert_array_equal(_whale_displacement(again, again / last.name), got)
     assert t_prev < t_last
@@ -146,7 +146,8 @@ def test_run_case_over_tcp_with_a_token_from_the_environment(tmp_path, meshed, s
     monkeypatch.setenv("WHALE_ADAPTER_TOKEN", token)
     case = tmp_path / "case"
     shutil.copytree(meshed, case)
-    R.run_case(case, ranks=2, progress=False, host="127.0.0.1", port=0)
+    R.run_case(case, ranks=2, progress=False, host="127.0.0.1", port=0,
+               reconstruct=True)
     log = (case / "log.pimpleFoam").read_text()
     assert "stepServer: connected to tcp://127.0.0.1:" in log
     t_last, last = F.time_dirs(case)[-1]

@@ -841,7 +841,7 @@ def foam_case_2ranks(tmp_path_factory, foam_case):
     mesh, _, _ = foam_case
     ref = tmp_path_factory.mktemp("faults2") / "reference"
     shutil.copytree(mesh, ref)
-    R.run_case(ref, ranks=2, progress=False)
+    R.run_case(ref, ranks=2, progress=False, reconstruct=True)
     written = {d.name: _whale_displacement(d) for t, d in F.time_dirs(ref) if t > 0}
     assert len(written) == FAULT_STEPS // 4
     return written
@@ -890,7 +890,7 @@ def test_parallel_run_killed_resumes_from_the_ranks(tmp_path, foam_case, foam_ca
     decomposed = (case / "log.decomposePar").stat().st_mtime_ns
     assert F.resume_time(case) == latest
 
-    R.run_case(case, ranks=2, progress=False)
+    R.run_case(case, ranks=2, progress=False, reconstruct=True)
     assert (case / "log.decomposePar").stat().st_mtime_ns == decomposed   # not re-decomposed
     for name, times in before.items():
         after = _written(case / name)

@@ -23,7 +23,7 @@ import numpy as np
 
 from adapter import resources
 from adapter.errors import CaseError, SceneError
-from adapter.foam.dictionaries import PLUGIN_LIB, write_dictionaries
+from adapter.foam.dictionaries import PLUGIN_LIB, choose_decomposition, write_dictionaries
 from adapter.foam.loads import body_dimensions
 from adapter.foam.parameters import CaseParameters, case_parameters
 
@@ -82,7 +82,8 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     pts = np.asarray(surface.points)
     params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
                              length=surface.length)
-    write_dictionaries(case, scene, params, static_whale)
+    decomposition = choose_decomposition(case, scene.case.decomposition, scene.base_dir)
+    write_dictionaries(case, scene, params, static_whale, decomposition)
     tail_base_s = float(surface.s[surface.landmarks["tail_base"]])
     st = scene.stroke
     ramp = (st.ramp_cycles if st.reversal == "smooth" else st.fluke_ramp) * scene.period_s
@@ -104,6 +105,9 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         "max_non_orthogonality": scene.case.max_non_orthogonality,
         "surface_nodes": int(len(pts)),
         "parameters": asdict(params),
+        "parallel": {"launcher": scene.case.launcher, "decomposition": decomposition,
+                     "parallel_meshing": scene.case.parallel_meshing,
+                     "reconstruct": scene.case.reconstruct},
     }
     write_json(case / CASE_RECORD, record)
     return params
@@ -129,6 +133,17 @@ def check_length(scene, surface) -> None:
 def write_json(path: Path, data: dict) -> None:
     """``data`` as indented JSON into ``path`` (the case record, the summary)."""
     path.write_text(json.dumps(data, indent=2) + "\n")
+
+
+def parallel_settings(record: dict, **given) -> dict:
+    """How a case runs on several ranks: ``launcher``, ``decomposition``, ``parallel_meshing``,
+    ``reconstruct``; each from ``given`` unless None there, else from the record (prepared from
+    the scene's ``[case]``), else the default (a case prepared before these settings)."""
+    out = {"launcher": "", "decomposition": "hierarchical", "parallel_meshing": False,
+           "reconstruct": False}
+    out.update(record.get("parallel") or {})
+    out.update({k: v for k, v in given.items() if v is not None})
+    return out
 
 
 def read_record(case_dir) -> dict:

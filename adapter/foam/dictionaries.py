@@ -7,14 +7,19 @@ fields of ``0.orig``, from the scene and the case's
 
 from __future__ import annotations
 
+import math
 import os
+import shutil
 from pathlib import Path
 
 from adapter import resources
+from adapter.errors import CaseError
 from adapter.foam.parameters import CaseParameters
 
 #: the boundary condition library built by scripts/build_plugin.sh (resources.build_dir())
 PLUGIN_LIB = resources.PLUGIN_LIB
+#: the decompositions ``case.decomposition`` names (else it names a decomposeParDict file)
+DECOMPOSITIONS = ("hierarchical", "case")
 #: the step-server boundary condition's timeouts written into 0.orig/pointDisplacement (s)
 CONNECT_TIMEOUT_S = 10
 REPLY_TIMEOUT_S = 120
@@ -37,12 +42,13 @@ def _vector(v) -> str:
     return "(" + " ".join(repr(float(x)) for x in v) + ")"
 
 
-def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool) -> None:
+def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool,
+                       decomposition: str = "hierarchical") -> None:
     """Set every dictionary of the copied template ``case`` from ``scene`` and ``p``.
 
     ``static_whale``: the whale patch is fixed (``fixedValue``) instead of asking the
     step-server, and without a built plugin library the loads function object and the blended
-    mesh motion are left out.
+    mesh motion are left out. ``decomposition``: as :func:`set_decomposition`'s ``method``.
     """
     c = scene.case
     d = parsed_dict(case / "system" / "blockMeshDict")
@@ -100,7 +106,7 @@ def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool)
         d["motionSolverLibs"] = ['"libfvMotionSolvers.so"']
     d.writeFile()
 
-    set_decomposition(case, p.ranks)
+    set_decomposition(case, p.ranks, decomposition)
 
     d = parsed_dict(case / "constant" / "transportProperties")
     d["nu"] = scene.flow.nu_m2_s
@@ -145,12 +151,61 @@ def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool)
     d.writeFile()
 
 
-def set_decomposition(case: Path, ranks: int) -> None:
-    """system/decomposeParDict for ``ranks`` subdomains: ``hierarchical (ranks 1 1)``."""
-    d = parsed_dict(Path(case) / "system" / "decomposeParDict")
+def set_decomposition(case: Path, ranks: int, method: str = "hierarchical") -> None:
+    """system/decomposeParDict for ``ranks`` subdomains.
+
+    ``method`` (``case.decomposition`` as recorded, :data:`DECOMPOSITIONS`): "hierarchical"
+    writes ``hierarchical (ranks 1 1)``; "case" keeps the case's own method and coefficients
+    (``simple (1 2 1)``, ``scotch`` where OpenFOAM has it, ...) and sets only
+    numberOfSubdomains.
+    Raises :class:`~adapter.errors.CaseError` when the case's own ``simple`` or
+    ``hierarchical`` split ``n`` does not make ``ranks`` subdomains.
+    """
+    path = Path(case) / "system" / "decomposeParDict"
+    d = parsed_dict(path)
     d["numberOfSubdomains"] = ranks
-    d["coeffs"]["n"] = f"({ranks} 1 1)"
+    if method == "hierarchical":
+        d["method"] = "hierarchical"
+        d["coeffs"] = {"n": f"({ranks} 1 1)", "order": "xyz"}
+    else:
+        _check_split(d, ranks, path)
     d.writeFile()
+
+
+def _check_split(d, ranks: int, path: Path) -> None:
+    """A ``simple`` or ``hierarchical`` split ``n`` must make ``ranks`` subdomains."""
+    method = str(d["method"]) if "method" in d else ""
+    if method not in ("simple", "hierarchical"):
+        return
+    for key in (f"{method}Coeffs", "coeffs"):
+        if key in d and "n" in d[key]:
+            try:
+                split = [int(v) for v in d[key]["n"]]
+            except (TypeError, ValueError):
+                return          # decomposePar says what is wrong with it
+            break
+    else:
+        return
+    if math.prod(split) != ranks:
+        raise CaseError(f"{path}: {method} n ({' '.join(map(str, split))}) makes "
+                        f"{math.prod(split)} subdomains, not the {ranks} ranks asked for; "
+                        "edit its n or run with as many ranks (--np)")
+
+
+def choose_decomposition(case: Path, value: str, base_dir: str | Path = ".") -> str:
+    """The decomposition to record for ``case.decomposition = value``: a name of
+    :data:`DECOMPOSITIONS` as it is; else a decomposeParDict file (relative to ``base_dir``,
+    the scene file's folder), copied to ``<case>/system/decomposeParDict``: "case"."""
+    if value in DECOMPOSITIONS:
+        return value
+    src = Path(value).expanduser()
+    src = src if src.is_absolute() else Path(base_dir) / src
+    if not src.is_file():
+        raise CaseError(f"case.decomposition = {value!r}: neither one of "
+                        f"{', '.join(DECOMPOSITIONS)} nor a decomposeParDict file ({src} is "
+                        "missing)")
+    shutil.copyfile(src, Path(case) / "system" / "decomposeParDict")
+    return "case"
 
 
 def inflow_ramp_table(speed: float, duration: float, points: int = 24) -> str:

@@ -4,33 +4,50 @@ recorded as (cells, the whale patch, quality, the prism layers) in ``adapter-cas
 from __future__ import annotations
 
 import json
+import shutil
 import time
 from pathlib import Path
 
 from adapter.errors import AdapterError, SolverRunError
-from adapter.foam.case import CASE_RECORD, read_record, write_json
-from adapter.foam.folders import restore_zero
+from adapter.foam.case import CASE_RECORD, parallel_settings, read_record, write_json
+from adapter.foam.dictionaries import set_decomposition
+from adapter.foam.folders import processor_dirs, restore_zero
 from adapter.foam.logs import parse_check_mesh
+from adapter.foam.parallel import parallel_command
 from adapter.foam.tools import check_foam, run_utility
 from adapter.foam.yplus import layer_coverage, parse_layer_report
 
 
-def mesh_case(case_dir) -> dict:
+def mesh_case(case_dir, *, ranks: int | None = None, parallel: bool | None = None,
+              launcher: str | None = None) -> dict:
     """blockMesh, snappyHexMesh -overwrite and checkMesh in a prepared case.
 
+    ``parallel`` (None: ``case.parallel_meshing`` as recorded) with ``ranks`` > 1 (None: the
+    recorded rank count) runs snappyHexMesh on the ranks (:func:`snappy_on_ranks`, started by
+    ``launcher``, None: the recorded one) and reconstructs the mesh into ``constant/polyMesh``.
+
     Returns the mesh's facts parsed from checkMesh: cells, whale_faces, whale_points,
-    max_non_orthogonality, max_skewness, mesh_ok; also recorded in adapter-case.json. Raises
-    :class:`~adapter.errors.SolverRunError` when a utility fails or the whale patch is missing.
+    max_non_orthogonality, max_skewness, mesh_ok, meshed_on_ranks; also recorded in
+    adapter-case.json. Raises :class:`~adapter.errors.SolverRunError` when a utility fails or
+    the whale patch is missing.
     """
     check_foam()
     case = Path(case_dir)
-    read_record(case)  # a folder not made by run-case is refused before blockMesh touches it
+    # a folder not made by run-case is refused before blockMesh touches it
+    record = read_record(case)
+    settings = parallel_settings(record, parallel_meshing=parallel, launcher=launcher)
+    ranks = int(ranks or record["parameters"]["ranks"])
+    on_ranks = ranks if settings["parallel_meshing"] and ranks > 1 else 1
     t0 = time.perf_counter()
     run_utility(case, ["blockMesh"])
-    run_utility(case, ["snappyHexMesh", "-overwrite"])
+    if on_ranks > 1:
+        snappy_on_ranks(case, on_ranks, settings["launcher"], settings["decomposition"])
+    else:
+        run_utility(case, ["snappyHexMesh", "-overwrite"])
     log = run_utility(case, ["checkMesh"])
     info = parse_check_mesh(log.read_text(errors="replace"))
     info["mesh_s"] = round(time.perf_counter() - t0, 2)
+    info["meshed_on_ranks"] = on_ranks
     info.update(layer_record(case))
     if not info.get("whale_faces"):
         raise SolverRunError(f"snappyHexMesh made no whale patch; see {case / 'log.snappyHexMesh'}"
@@ -42,6 +59,26 @@ def mesh_case(case_dir) -> dict:
         record["mesh"] = info
         write_json(record_path, record)
     return info
+
+
+def snappy_on_ranks(case: Path, ranks: int, launcher: str = "",
+                    decomposition: str = "hierarchical") -> None:
+    """snappyHexMesh on ``ranks`` ranks: decomposePar of the blockMesh mesh (the case's
+    decomposition), ``snappyHexMesh -overwrite -parallel``, reconstructParMesh into
+    ``constant/polyMesh`` (and reconstructPar of the layer fields snappyHexMesh wrote into
+    ``processor*/0``); the processor folders are removed (a run decomposes the final mesh)."""
+    set_decomposition(case, ranks, decomposition)
+    for p in processor_dirs(case):
+        shutil.rmtree(p)
+    run_utility(case, ["decomposePar", "-force"], log_name="decomposePar.mesh")
+    run_utility(case, parallel_command(["snappyHexMesh", "-overwrite"], ranks, launcher),
+                log_name="snappyHexMesh")
+    run_utility(case, ["reconstructParMesh", "-constant"])
+    if any((p / "0").is_dir() for p in processor_dirs(case)):
+        run_utility(case, ["reconstructPar", "-withZero", "-time", "0"],
+                    log_name="reconstructPar.mesh")
+    for p in processor_dirs(case):
+        shutil.rmtree(p)
 
 
 def layer_record(case_dir) -> dict:

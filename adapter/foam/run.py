@@ -20,7 +20,7 @@ from pathlib import Path
 from adapter import resources
 from adapter.coupling.server import TOKEN_ENV
 from adapter.errors import SolverRunError
-from adapter.foam.case import read_record, write_json
+from adapter.foam.case import parallel_settings, read_record, write_json
 from adapter.foam.dictionaries import parsed_dict, plugin_lib, set_decomposition
 from adapter.foam.folders import (
     processor_dirs,
@@ -32,6 +32,7 @@ from adapter.foam.folders import (
 )
 from adapter.foam.logs import LogWatch, Progress, fatal_error
 from adapter.foam.mesh import mesh_case
+from adapter.foam.parallel import parallel_command
 from adapter.foam.stepserver import start_server, stop_server
 from adapter.foam.summary import SUMMARY, summarise
 from adapter.foam.tools import check_foam, foam_env, run_utility
@@ -44,11 +45,16 @@ STOP_SIGNAL = signal.SIGUSR1
 
 def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
              stop_when=None, host: str | None = None, port: int | None = None,
-             token: str | None = None) -> dict:
+             token: str | None = None, launcher: str | None = None,
+             reconstruct: bool | None = None) -> dict:
     """Run pimpleFoam on a prepared case with the step-server, and summarise the run.
 
-    Meshes the case first when it has no mesh. Serial for one rank, otherwise decomposePar,
-    ``mpirun -np N pimpleFoam -parallel`` and reconstructPar. A case that has written times
+    Meshes the case first when it has no mesh. Serial for one rank, otherwise decomposePar
+    (the case's decomposition, :func:`~adapter.foam.dictionaries.set_decomposition`) and
+    ``<launcher> pimpleFoam -parallel`` (:mod:`adapter.foam.parallel`; ``launcher`` None: the
+    recorded ``case.launcher``, "" there: mpirun); reconstructPar only when ``reconstruct``
+    (None: the recorded ``case.reconstruct``), else the written times stay in the processor
+    folders (a rerun on as many ranks continues from them). A case that has written times
     continues from the latest (controlDict ``startFrom latestTime``).
 
     ``stop_when(case) -> str | None`` is asked every :data:`STOP_WHEN_STEPS` solver steps and
@@ -68,12 +74,13 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     case = Path(case_dir).resolve()
     record = read_record(case)
     ranks = int(ranks or record["parameters"]["ranks"])
+    settings = parallel_settings(record, launcher=launcher, reconstruct=reconstruct)
     if not (case / "constant" / "polyMesh" / "owner").exists():
-        mesh_case(case)
+        mesh_case(case, ranks=ranks, launcher=settings["launcher"])
         record = read_record(case)
     restore_zero(case)
     if ranks > 1:
-        set_decomposition(case, ranks)
+        set_decomposition(case, ranks, settings["decomposition"])
     static = bool(record.get("static_whale"))
     if not static and not plugin_lib().is_file():
         raise SolverRunError(f"the boundary condition library {plugin_lib()} is missing; build "
@@ -90,7 +97,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     control = parsed_dict(case / "system" / "controlDict")
     end_time = float(control["endTime"])
     if start_time >= end_time - 0.5 * float(control["deltaT"]):
-        return _finished(case, record, ranks, from_ranks, t_start)
+        return _finished(case, record, ranks, from_ranks and settings["reconstruct"], t_start)
     token = token or os.environ.get(TOKEN_ENV) or None
     env = foam_env()
     env.pop(TOKEN_ENV, None)
@@ -110,10 +117,9 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
                 shutil.rmtree(p)
             run_utility(case, ["decomposePar", "-force", "-latestTime"])
         if ranks > 1:
-            # the token reaches the ranks on other hosts through mpirun's -x, not a file
-            forward = ["-x", TOKEN_ENV] if token else []
-            cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", str(ranks),
-                   *forward, *solver, "-parallel"]
+            # the token reaches the ranks on other hosts through the environment (Open MPI's
+            # -x), never a file
+            cmd = parallel_command(solver, ranks, settings["launcher"], token=bool(token))
         else:
             cmd = solver
         if not static:
@@ -135,7 +141,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
                                  + f"\n(see {case / 'log.pimpleFoam'}; run the same command again"
                                  " to continue from the latest written time)")
         raise SolverRunError(f"{what}{hint}; see {case / 'log.pimpleFoam'}")
-    if ranks > 1:
+    if ranks > 1 and settings["reconstruct"]:
         run_utility(case, ["reconstructPar", "-newTimes"])
     (case / "case.foam").touch()
     summary = summarise(case, watch, record, ranks, flow_wall, time.perf_counter() - t_start)
@@ -151,10 +157,10 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     return summary
 
 
-def _finished(case: Path, record: dict, ranks: int, from_ranks: bool, t_start: float) -> dict:
+def _finished(case: Path, record: dict, ranks: int, reconstruct: bool, t_start: float) -> dict:
     """A case already at its end time: nothing to run; its summary (reconstructed first when
-    the last times are only in processor folders)."""
-    if from_ranks:
+    asked and the last times are only in processor folders)."""
+    if reconstruct:
         run_utility(case, ["reconstructPar", "-newTimes"])
     (case / "case.foam").touch()
     if (case / SUMMARY).is_file():
@@ -175,8 +181,12 @@ def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_
     stopped = None
     asked_at = 0      # steps seen when stop_when was last asked
     with open(case / "log.pimpleFoam", "w") as log:
-        proc = subprocess.Popen(cmd, cwd=case, stdout=log, stderr=subprocess.STDOUT,
-                                env=env or foam_env(), start_new_session=True)
+        try:
+            proc = subprocess.Popen(cmd, cwd=case, stdout=log, stderr=subprocess.STDOUT,
+                                    env=env or foam_env(), start_new_session=True)
+        except FileNotFoundError:
+            raise SolverRunError(f"{cmd[0]} is not on PATH (install it, or give the launcher "
+                                 "with its full path)") from None
         try:
             while True:
                 rc = proc.poll()

@@ -36,7 +36,12 @@ def run_utility(case_dir, args: list, log_name: str | None = None) -> Path:
     case = Path(case_dir)
     log = case / f"log.{log_name or Path(args[0]).name}"
     with open(log, "w") as fh:
-        rc = subprocess.call(args, cwd=case, stdout=fh, stderr=subprocess.STDOUT, env=foam_env())
+        try:
+            rc = subprocess.call(args, cwd=case, stdout=fh, stderr=subprocess.STDOUT,
+                                 env=foam_env())
+        except FileNotFoundError:
+            raise SolverRunError(f"{args[0]} is not on PATH (install it, or give the launcher "
+                                 "with its full path)") from None
     text = log.read_text(errors="replace")
     if rc != 0 or "FOAM FATAL" in text:
         raise SolverRunError(f"{args[0]} failed (exit code {rc}); see {log}")
