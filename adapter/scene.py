@@ -193,7 +193,7 @@ class Case:
     #: snappyHexMesh prism layers on the whale (0: none), the first (wall) layer's absolute
     #: thickness (m) and the thickness ratio of neighbouring layers
     layers: int = field(default=3, metadata={"check": lambda v: 0 <= v <= 20})
-    first_layer_m: float = field(default=0.008, metadata={"check": _positive})
+    first_layer_m: float = field(default=0.007, metadata={"check": _positive})
     layer_expansion: float = field(default=1.5, metadata={"check": lambda v: 1.0 <= v <= 3.0})
     #: how the mesh follows the whale: "blended" (whaleBlendedDisplacement: every point's
     #: displacement a fixed weighted sum of its nearest whale points', faded out between
@@ -202,6 +202,18 @@ class Case:
     mesh_motion: str = field(default="blended", metadata={"choices": ("blended", "laplacian")})
     motion_inner: float = field(default=1.0 / 30.0, metadata={"check": _non_negative})
     motion_outer: float = field(default=2.0 / 3.0, metadata={"check": _positive})
+    #: how the ranks are started (docs/cluster.md): a command before ``pimpleFoam -parallel``,
+    #: ``{np}`` replaced by the rank count (else ``-np N`` appended); "" is this machine's
+    #: ``mpirun --allow-run-as-root --oversubscribe -np {np}``
+    launcher: str = ""
+    #: the decomposition: "hierarchical" (``(N 1 1)`` for the run's N ranks), "case" (the
+    #: case's own system/decomposeParDict: only numberOfSubdomains is set) or a
+    #: decomposeParDict file (relative to the scene file), copied into the case and kept
+    decomposition: str = "hierarchical"
+    #: snappyHexMesh on the ranks (decomposePar of the blockMesh mesh, then reconstructParMesh)
+    parallel_meshing: bool = False
+    #: reconstructPar after a parallel run (else the written times stay in processor*/)
+    reconstruct: bool = False
 
 
 @dataclass(frozen=True)

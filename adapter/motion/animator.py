@@ -24,7 +24,6 @@ from adapter.motion.gait import (
     joint_bend,
     load_fluke_table,
     place_gate,
-    push_and_tether,
     ramp,
     smootherstep,
     velocity_profile,
@@ -94,10 +93,31 @@ class Animator:
         self._moving_damping = self.network.damping_force(self.profile)[self._moving]
         w_t = 2 * math.pi * st.tether * st.frequency_hz
         self._tether_k, self._tether_c = w_t * w_t, 2 * w_t
+        # the stroke's part of the right-hand side, for the integrators' stages (the layout of
+        # gait.drive_place / drive_force); the paper's stroke has no force, only the gate
+        some = self._moving if self.smooth else np.zeros(0, dtype=np.int64)
+        c64 = np.ascontiguousarray
+        #: (rest, moving, profile, damping, (k, c), hinge nodes, fluke nodes, arms, hinge0,
+        #: bend): the arrays of the time-aware right-hand side (integrators.Integrator.step)
+        self.stage_arrays = (
+            c64(self.rest, dtype=np.float64), c64(some, dtype=np.int64),
+            c64(self._moving_profile[: len(some)], dtype=np.float64),
+            c64(self._moving_damping[: len(some)], dtype=np.float64),
+            np.array([self._tether_k, self._tether_c], dtype=np.float64),
+            c64(self.hinge_nodes, dtype=np.int64), c64(self._fluke_nodes, dtype=np.int64),
+            c64(self._fluke_arm, dtype=np.float64), c64(self.hinge0, dtype=np.float64),
+            c64(self._fluke_bend, dtype=np.float64))
 
         method = scene.integrator.method
-        # predicted on the free (spring-moved) nodes; the fluke gate is kinematic
+        # predicted on the free (spring-moved) nodes; the fluke gate is kinematic. The smooth
+        # stroke's tether is stiffness and damping in the right-hand side: the smaller of the
+        # steps with and without it (its damping lowers symplectic Euler's and Verlet's bound
+        # by 5-7 %, and would allow forward Euler 3 times its step: kept as it was)
         self.stable_dt = stable_dt(self.network, self.rest, method, free=self.dynamic)
+        if self.smooth and self._tether_k > 0:
+            self.stable_dt = min(self.stable_dt, stable_dt(
+                self.network, self.rest, method, free=self.dynamic,
+                tether=(self._tether_k, self._tether_c)))
         quarter = self.period / 4
         if scene.integrator.dt_s > 0:
             target = scene.integrator.dt_s
@@ -111,7 +131,8 @@ class Animator:
         elif self.stable_dt > 0:
             target = scene.integrator.safety * min(self.stable_dt, quarter)
             if self.smooth:
-                # the stroke's push and the tether are applied once per step: resolve them
+                # resolve the stroke's and the tether's time scales (a few % of a radian per
+                # step), so that every method's time error stays small at its default step
                 target = min(target, 0.05 / max(math.sqrt(self._tether_k), 2 * math.pi
                                                 / self.period))
         else:
@@ -196,22 +217,28 @@ class Animator:
 
     # -- stepping ---------------------------------------------------------------------------
 
+    def stage_coefficients(self, t: float, dt: float, stages) -> np.ndarray:
+        """(len(stages), 5) rows (G'(s), G(s), D(s), theta(s), theta'(s)) at the stage times
+        s = t + c dt of an integrator step (c in ``stages``): the smooth stroke's time law
+        (gait.SmoothStroke; zero for the paper's stroke, whose events are not a force) and the
+        fluke gate's angle. The first stage is the state handed in, already gated: its angle
+        is not needed."""
+        out = np.zeros((len(stages), 5))
+        for k, c in enumerate(stages):
+            ts = t + c * dt
+            if self.smooth:
+                out[k, :3] = self._stroke.at(ts)
+            if k:
+                out[k, 3:] = self.fluke_angle(ts)
+        return out
+
     def _event(self, n: int) -> None:
         """The stroke's velocity change on arriving at internal step ``n``.
 
-        Smooth: the push over the step just taken, ``profile dG - damping(profile) dD``
-        (gait.SmoothStroke): the target's acceleration less the network's velocity force on the
-        target (mu between nodes, nu), so that the springs alone make the motion depart from
-        the target; at n = 0 the target is at rest. Negate: the event at the start of each quarter
-        (gait.QUARTER_EVENTS)."""
+        Smooth: none; the push and the tether are a force in the integrator's right-hand side
+        (:meth:`stage_coefficients`, gait.stroke_force), evaluated at every stage time.
+        Negate: the event at the start of each quarter (gait.QUARTER_EVENTS)."""
         if self.smooth:
-            if n > 0:
-                law, t1, t0 = self._stroke, n * self.dt, (n - 1) * self.dt
-                G1, D1 = law.velocity(t1), law.displacement(t1)
-                push_and_tether(self.X, self.V, self.rest, self._moving, self._moving_profile,
-                                self._moving_damping, G1 - law.velocity(t0),
-                                D1 - law.displacement(t0), G1, D1, self._tether_k,
-                                self._tether_c, self.dt)
             return
         if n % self.steps_per_quarter:
             return
@@ -244,8 +271,18 @@ class Animator:
         """March the state forward to internal step ``n_target`` (no step back: a smaller
         target leaves the state as it is)."""
         while self.step_index < n_target:
-            X, V = self.integrator.step(self.X, self.V)
             n = self.step_index + 1
+            t0, t1 = self.step_index * self.dt, n * self.dt
+            tr = self.ramp_s
+            if self.smooth and t0 + 1e-9 * self.dt < tr < t1 - 1e-9 * self.dt:
+                # the ramp's end: the stroke's time law is only C2 there (the quintic's third
+                # derivative jumps), which costs a step across it the method's order (RK4 falls
+                # to 2); two sub-steps meet there instead
+                Xm, Vm = self.integrator.step(self.X, self.V, t0, drive=self, dt=tr - t0)
+                self._constrain(Xm, Vm, tr)
+                X, V = self.integrator.step(Xm, Vm, tr, drive=self, dt=t1 - tr)
+            else:
+                X, V = self.integrator.step(self.X, self.V, t0, drive=self)
             self._constrain(X, V, n * self.dt)
             self.X_prev, self.V_prev = self.X, self.V
             self.X, self.V, self.step_index = X, V, n

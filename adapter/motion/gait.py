@@ -17,10 +17,12 @@ Cycles repeat. Each event is an instantaneous change of every node's velocity.
 a smooth target: every moving node is pushed along ``profile * G(t)``, the velocity of the
 displacement ``profile * D(t)``, D(t) = r(t) sin(w t) / w, with r a quintic ramp from 0 to 1
 over ``stroke.ramp_cycles`` (:class:`SmoothStroke`). The push is the acceleration that moves a
-free unit mass along the target against the fluid resistance nu, ``G'(t) + nu G(t)``, applied
-as a velocity increment after each internal step; the springs and damping act on top of it as
-in the paper. The wall velocity is continuous at the start and at every reversal, and up and
-down strokes are mirror images.
+free unit mass along the target against the network's velocity force (damping between nodes
+and the fluid resistance nu), ``profile G'(t) - damping(profile) G(t)``, with a tether toward
+the target; both are a force term of the right-hand side, evaluated by the integrator at every
+stage time (:func:`stroke_force`), so every method keeps its order. The springs and damping act
+on top of it as in the paper. The wall velocity is continuous at the start and at every
+reversal, and up and down strokes are mirror images.
 
 The fluke (every node behind the tail base) is not part of the spring system: it is a gate
 hinged at the tail base, shifted with it and rotated by the angle of a table interpolated in
@@ -28,8 +30,9 @@ time: piecewise linearly with ``"negate"``, by a periodic cubic spline (continuo
 velocity) with ``"smooth"``. With ``stroke.fluke_joint`` > 0 the gate bends instead of
 folding: the fluke root moves as the body just ahead of it does (the springs move the body
 vertically, with a slope along it), and the gate's rigid turn takes over smoothly along that
-length (:func:`joint_bend`), so the surface, and the mesh layers on it, are not creased at
-the hinge line.
+length (:func:`joint_bend`), so the surface, and the mesh layers on it, are not creased at the
+hinge line. The gate is a kinematic constraint: the integrators place it on every stage state
+at the stage's time (:func:`drive_place`), and the animator after every step.
 """
 
 from __future__ import annotations
@@ -214,6 +217,20 @@ class SmoothStroke:
         w = self.omega
         return r1 * math.sin(w * t) / w + r * math.cos(w * t)
 
+    def acceleration(self, t: float) -> float:
+        """G'(t)."""
+        r, r1, r2 = smootherstep(t, self.ramp_s)
+        w = self.omega
+        s, c = math.sin(w * t), math.cos(w * t)
+        return r2 * s / w + 2 * r1 * c - r * w * s
+
+    def at(self, t: float) -> tuple[float, float, float]:
+        """(G'(t), G(t), D(t)) in one go (the right-hand side's coefficients)."""
+        r, r1, r2 = smootherstep(t, self.ramp_s)
+        w = self.omega
+        s, c = math.sin(w * t), math.cos(w * t)
+        return r2 * s / w + 2 * r1 * c - r * w * s, r1 * s / w + r * c, r * s / w
+
 
 def rotation_y(theta: float) -> np.ndarray:
     """Rotation in the x-z plane that raises +x toward +z by ``theta`` (rad)."""
@@ -222,21 +239,22 @@ def rotation_y(theta: float) -> np.ndarray:
 
 
 @numba.njit(cache=True, error_model="numpy")
-def push_and_tether(X, V, rest, moving, profile, damping, dG, dD, G1, D1, k, c, dt):
-    """The smooth stroke's velocity change over one internal step, in place on V.
+def stroke_force(X, V, out, rest, moving, profile, damping, g_dot, g, d, k, c):
+    """Add the smooth stroke's force at one time to ``out`` (in place), on the moving nodes.
 
-    For every moving node a (index ``moving[a]``): the push ``profile dG - damping dD`` on
-    its vertical velocity (the target's acceleration less the network's velocity force on the
-    target, integrated over the step), then the tether ``-dt (k (x - x_target) + c (v -
-    v_target))`` with ``x_target = rest + profile D1 e_z`` and ``v_target = profile G1 e_z``
-    (see :class:`SmoothStroke`)."""
+    For every moving node a (index ``moving[a]``): the push ``profile G'(t) - damping G(t)``
+    on its vertical acceleration (the target's acceleration less the network's velocity force
+    on the target), and the tether ``-k (x - x_target) - c (v - v_target)`` with
+    ``x_target = rest + profile D(t) e_z`` and ``v_target = profile G(t) e_z``
+    (see :class:`SmoothStroke`; ``g_dot, g, d`` are G'(t), G(t), D(t)). A term of the
+    right-hand side: the integrators evaluate it at every stage time (:func:`drive_stage`)."""
     for a in range(moving.shape[0]):
         i = moving[a]
-        V[i, 2] += dG * profile[a] - dD * damping[a]
-        V[i, 0] -= dt * (k * (X[i, 0] - rest[i, 0]) + c * V[i, 0])
-        V[i, 1] -= dt * (k * (X[i, 1] - rest[i, 1]) + c * V[i, 1])
-        V[i, 2] -= dt * (k * (X[i, 2] - rest[i, 2] - D1 * profile[a])
-                         + c * (V[i, 2] - G1 * profile[a]))
+        p = profile[a]
+        out[i, 0] -= k * (X[i, 0] - rest[i, 0]) + c * V[i, 0]
+        out[i, 1] -= k * (X[i, 1] - rest[i, 1]) + c * V[i, 1]
+        out[i, 2] += (g_dot * p - g * damping[a]
+                      - k * (X[i, 2] - rest[i, 2] - d * p) - c * (V[i, 2] - g * p))
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -290,6 +308,30 @@ def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_
         V[i, 0] = vx - b * theta_dot * rz
         V[i, 1] = vy
         V[i, 2] = vz + b * theta_dot * rx + (1.0 - b) * g_dot * ax
+
+
+@numba.njit(cache=True, error_model="numpy")
+def drive_place(X, V, drive, coef):
+    """Place the fluke gate on a stage state (X, V, in place) at the stage's time: the fluke
+    is a kinematic constraint, so the springs attached to it must see it where it is at that
+    time, inside the step and not only after it.
+
+    ``drive`` is :meth:`~adapter.animator.Animator.stage_arrays` (rest, moving, profile,
+    damping, (k, c), hinge nodes, fluke nodes, arms, hinge0, bend), ``coef`` the row
+    (G'(t), G(t), D(t), theta(t), theta'(t)) at the stage's time t."""
+    rest, _, _, _, _, hinge, fluke, arm0, hinge0, bend = drive
+    if fluke.shape[0] > 0:
+        place_gate(X, V, rest, hinge, fluke, arm0, hinge0, coef[3], coef[4], bend)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def drive_force(X, V, out, drive, coef):
+    """Add the stroke's force at the stage's time to ``out`` (the network's force at the stage
+    state): :func:`stroke_force` with the arrays of ``drive`` and the row ``coef`` (see
+    :func:`drive_place`)."""
+    rest, moving, profile, damping, kc, _, _, _, _, _ = drive
+    stroke_force(X, V, out, rest, moving, profile, damping, coef[0], coef[1], coef[2],
+                 kc[0], kc[1])
 
 
 def joint_bend(s: np.ndarray, tail_base_s: float, joint: float) -> np.ndarray:

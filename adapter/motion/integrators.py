@@ -28,6 +28,13 @@ sparse LU solve per step (scipy.sparse.linalg.splu; the paper's force is not sym
 When the integrator is given the :class:`~adapter.body.springs.SpringNetwork` (``network=``) and
 its force is that network's, each explicit step runs as one compiled pass (numba): the force
 kernel fused with the update and the check, no temporary arrays beyond the two returned.
+
+Time-aware right-hand side. ``step(X, V, t, drive=...)`` integrates
+dV/dt = F(X, V) + F_drive(t, X, V) with the constraint of the drive's kinematic nodes: at every
+stage (at its own time t + c dt: the ``stages`` of each class) the fluke gate is placed on the
+stage state and the stroke's force is added to the network's (gait.drive_place,
+gait.drive_force), inside the compiled kernels too. Applied instead once per step, after it
+(operator splitting), they made every method first order on the whole whale.
 """
 
 from __future__ import annotations
@@ -39,6 +46,7 @@ import numpy as np
 
 from adapter.body.springs import damping_matrix, edge_forces, force_jacobian
 from adapter.errors import UnstableError
+from adapter.motion.gait import drive_force, drive_place
 
 Force = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
@@ -54,14 +62,28 @@ def _axpy(out, X, dt, V):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _fe_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cover
-    _fe_checked(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, X)
+def _rhs(X, V, s, i, j, rest, ki, kj, mu, nu, drive, coef, out):  # pragma: no cover
+    """out = the acceleration at stage ``s`` of a step: the network's force at (X, V) plus the
+    drive's term at the stage's time (row ``s`` of ``coef``). From the second stage on, the
+    drive's kinematic nodes (the fluke gate) are first placed on the stage state, in place
+    (the first stage is the state handed in, which already meets the constraint)."""
+    if s > 0:
+        drive_place(X, V, drive, coef[s])
+    edge_forces(X, V, i, j, rest, ki, kj, mu, nu, out)
+    drive_force(X, V, out, drive, coef[s])
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _fe_checked(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, ref):  # pragma: no cover
+def _fe_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, drive,
+               coef):  # pragma: no cover
+    _fe_checked(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, X, drive, coef)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _fe_checked(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, ref, drive,
+                coef):  # pragma: no cover
     """Forward Euler fused with the check: returns max |X1 - ref|, inf on NaN or infinity."""
-    edge_forces(X, V, i, j, rest, ki, kj, mu, nu, V1)
+    _rhs(X, V, 0, i, j, rest, ki, kj, mu, nu, drive, coef, V1)
     x0, v0, r = X.reshape(-1), V.reshape(-1), ref.reshape(-1)
     x1, v1 = X1.reshape(-1), V1.reshape(-1)
     m = 0.0
@@ -78,8 +100,9 @@ def _fe_checked(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, ref):  # pragma: n
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _se_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cover
-    edge_forces(X, V, i, j, rest, ki, kj, mu, nu, V1)
+def _se_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, drive,
+               coef):  # pragma: no cover
+    _rhs(X, V, 0, i, j, rest, ki, kj, mu, nu, drive, coef, V1)
     for a in range(X.shape[0]):
         for d in range(3):
             v = V[a, d] + dt * V1[a, d]
@@ -88,10 +111,11 @@ def _se_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cove
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _verlet_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cover
+def _verlet_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, drive,
+                   coef):  # pragma: no cover
     a0 = np.empty_like(X)
     vp = np.empty_like(X)
-    edge_forces(X, V, i, j, rest, ki, kj, mu, nu, a0)
+    _rhs(X, V, 0, i, j, rest, ki, kj, mu, nu, drive, coef, a0)
     h = 0.5 * dt
     for a in range(X.shape[0]):
         for d in range(3):
@@ -99,31 +123,33 @@ def _verlet_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no 
             V1[a, d] = vh
             X1[a, d] = X[a, d] + dt * vh
             vp[a, d] = vh + h * a0[a, d]
-    edge_forces(X1, vp, i, j, rest, ki, kj, mu, nu, a0)
+    # at t + dt; the gate is placed on X1 (its fluke rows are placed again after the step)
+    _rhs(X1, vp, 1, i, j, rest, ki, kj, mu, nu, drive, coef, a0)
     for a in range(X.shape[0]):
         for d in range(3):
             V1[a, d] += h * a0[a, d]
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _rk4_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cover
+def _rk4_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, drive,
+                coef):  # pragma: no cover
     n = X.shape[0]
     Xs = np.empty_like(X)
     Vs = np.empty_like(X)
     F = np.empty_like(X)
     h = 0.5 * dt
     w = dt / 6.0
-    # stage 1: k1 = (V, F(X, V))
-    edge_forces(X, V, i, j, rest, ki, kj, mu, nu, F)
+    # stage 1: k1 = (V, F(t, X, V))
+    _rhs(X, V, 0, i, j, rest, ki, kj, mu, nu, drive, coef, F)
     for a in range(n):
         for d in range(3):
             X1[a, d] = X[a, d] + w * V[a, d]
             V1[a, d] = V[a, d] + w * F[a, d]
             Xs[a, d] = X[a, d] + h * V[a, d]
             Vs[a, d] = V[a, d] + h * F[a, d]
-    # stages 2 and 3: k = (Vs, F(Xs, Vs)) at the midpoint
+    # stages 2 and 3: k = (Vs, F(t + dt/2, Xs, Vs)) at the midpoint
     for stage in range(2):
-        edge_forces(Xs, Vs, i, j, rest, ki, kj, mu, nu, F)
+        _rhs(Xs, Vs, 1 + stage, i, j, rest, ki, kj, mu, nu, drive, coef, F)
         step = h if stage == 0 else dt
         for a in range(n):
             for d in range(3):
@@ -133,7 +159,7 @@ def _rk4_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1):  # pragma: no cov
                 Xs[a, d] = X[a, d] + step * vs
                 Vs[a, d] = V[a, d] + step * F[a, d]
     # stage 4 at the end of the step
-    edge_forces(Xs, Vs, i, j, rest, ki, kj, mu, nu, F)
+    _rhs(Xs, Vs, 3, i, j, rest, ki, kj, mu, nu, drive, coef, F)
     for a in range(n):
         for d in range(3):
             X1[a, d] += w * Vs[a, d]
@@ -154,6 +180,14 @@ def _deviation(X, V, ref):  # pragma: no cover - compiled
             if r > m:
                 m = r
     return m
+
+
+#: the drive of a free network (no stroke force, no kinematic nodes), in the layout of
+#: :meth:`~adapter.animator.Animator.stage_arrays`
+_NO_DRIVE = (np.zeros((0, 3)), np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0),
+             np.zeros(2), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64),
+             np.zeros((0, 3)), np.zeros(3), np.zeros(0))
+_NO_COEF = np.zeros((4, 5))
 
 
 # -- the family -----------------------------------------------------------------------------
@@ -181,6 +215,8 @@ class Integrator:
     force_calls = 1
     #: a compiled step fused with the check (returns the largest deviation), where there is one
     _checked_kernel = None
+    #: the times of the right-hand side's evaluations within a step, in steps from its start
+    stages = (0.0,)
 
     def __init__(self, force: Force, dt: float, runaway: float | None = None,
                  reference: np.ndarray | None = None, stable_dt: float | None = None,
@@ -201,31 +237,50 @@ class Integrator:
         self._buffers = [] if reuse_buffers else None
         self._turn = 0
         self._kernel_args = None
+        #: the drive of the step under way (its arrays and coefficients; None: none)
+        self._drive, self._coef = None, _NO_COEF
         if network is not None and _same_force(force, network):
             net = network
             self._kernel_args = (net.i, net.j, net.rest, net.k_on_i, net.k_on_j,
                                  float(net.mu), float(net.nu))
 
-    def step(self, X: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """One step from (X, V); raises :class:`UnstableError` (and fails for good) on blow-up.
+    def step(self, X: np.ndarray, V: np.ndarray, t: float = 0.0, drive=None,
+             dt: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """One step from (X, V) at time t; raises :class:`UnstableError` (and fails for good)
+        on blow-up. ``dt`` replaces the integrator's step for this step only (the animator
+        splits the step that holds the stroke ramp's end).
+
+        ``drive``: a time-dependent part of the right-hand side (the animator's stroke and
+        fluke gate), evaluated at every stage's own time: an object with ``stage_arrays`` (the
+        tuple of :meth:`~adapter.animator.Animator.stage_arrays`) and
+        ``stage_coefficients(t, dt, stages)`` (one row per stage). The state (X, V) handed in
+        must already meet the drive's constraint at t (the gate placed); the fluke rows of the
+        state returned are the method's, to be placed again at t + dt by the caller.
 
         The new state is checked before it is returned: a NaN or runaway state is never
         handed on.
         """
         if self.status == "failed":
             raise UnstableError(f"{self.name}: the integrator has failed before; start anew")
+        h = self.dt if dt is None else float(dt)
+        if drive is None:
+            self._drive, self._coef = None, _NO_COEF
+            drv = _NO_DRIVE
+        else:
+            drv = self._drive = drive.stage_arrays
+            self._coef = drive.stage_coefficients(t, h, self.stages)
         if self._kernel_args is not None and hasattr(self, "_kernel"):
             X1, V1 = self._outputs(X, V)
             if self._checked_kernel is not None and self.reference is not None:
                 # the paper's method on the hot path: step and check in one pass
-                dev = self._checked_kernel(X, V, *self._kernel_args, self.dt, X1, V1,
-                                           self.reference)
+                dev = self._checked_kernel(X, V, *self._kernel_args, h, X1, V1,
+                                           self.reference, drv, self._coef)
                 self.n_steps += 1
                 self._verdict(dev)
                 return X1, V1
-            type(self)._kernel(X, V, *self._kernel_args, self.dt, X1, V1)
+            type(self)._kernel(X, V, *self._kernel_args, h, X1, V1, drv, self._coef)
         else:
-            X1, V1 = self._step(X, V, self.dt)
+            X1, V1 = self._step(X, V, h)
         self.n_steps += 1
         self.check(X1, V1)
         return X1, V1
@@ -279,6 +334,19 @@ class Integrator:
         count, no compiled kernel (the stability analysis runs it on a scalar oscillator)."""
         return self._step(X, V, dt)
 
+    def _f(self, X: np.ndarray, V: np.ndarray, s: int) -> np.ndarray:
+        """The right-hand side at stage ``s`` of the step under way: the force, plus the
+        drive's term at the stage's time (the gate placed on a copy of the stage state)."""
+        if self._drive is None:
+            return self.force(X, V)
+        coef = self._coef[s]
+        if s > 0:
+            X, V = X.copy(), V.copy()
+            drive_place(X, V, self._drive, coef)
+        F = np.array(self.force(X, V), dtype=np.float64)
+        drive_force(X, V, F, self._drive, coef)
+        return F
+
     def _step(self, X, V, dt):
         raise NotImplementedError
 
@@ -298,7 +366,7 @@ class ForwardEuler(Integrator):
     _checked_kernel = staticmethod(_fe_checked)
 
     def _step(self, X, V, dt):
-        F = self.force(X, V)
+        F = self._f(X, V, 0)
         return X + dt * V, V + dt * F
 
 
@@ -310,7 +378,7 @@ class SymplecticEuler(Integrator):
     _kernel = _se_kernel
 
     def _step(self, X, V, dt):
-        V1 = V + dt * self.force(X, V)
+        V1 = V + dt * self._f(X, V, 0)
         return X + dt * V1, V1
 
 
@@ -321,12 +389,13 @@ class Verlet(Integrator):
     order = 2
     force_calls = 2
     _kernel = _verlet_kernel
+    stages = (0.0, 1.0)
 
     def _step(self, X, V, dt):
-        a0 = self.force(X, V)
+        a0 = self._f(X, V, 0)
         Vh = V + 0.5 * dt * a0
         X1 = X + dt * Vh
-        a1 = self.force(X1, Vh + 0.5 * dt * a0)
+        a1 = self._f(X1, Vh + 0.5 * dt * a0, 1)
         return X1, Vh + 0.5 * dt * a1
 
 
@@ -337,16 +406,17 @@ class RK4(Integrator):
     order = 4
     force_calls = 4
     _kernel = _rk4_kernel
+    stages = (0.0, 0.5, 0.5, 1.0)
 
     def _step(self, X, V, dt):
-        f = self.force
-        k1x, k1v = V, f(X, V)
+        f = self._f
+        k1x, k1v = V, f(X, V, 0)
         k2x = V + 0.5 * dt * k1v
-        k2v = f(X + 0.5 * dt * k1x, k2x)
+        k2v = f(X + 0.5 * dt * k1x, k2x, 1)
         k3x = V + 0.5 * dt * k2v
-        k3v = f(X + 0.5 * dt * k2x, k3x)
+        k3v = f(X + 0.5 * dt * k2x, k3x, 2)
         k4x = V + dt * k3v
-        k4v = f(X + dt * k3x, k4x)
+        k4v = f(X + dt * k3x, k4x, 3)
         return (X + dt / 6 * (k1x + 2 * k2x + 2 * k3x + k4x),
                 V + dt / 6 * (k1v + 2 * k2v + 2 * k3v + k4v))
 
@@ -360,6 +430,8 @@ class BackwardEuler(Integrator):
 
     name = "backward_euler"
     order = 1
+    #: the drive is taken at the end of the step, as the method takes the force
+    stages = (1.0,)
 
     def __init__(self, force: Force, dt: float, **kwargs):
         super().__init__(force, dt, **kwargs)
@@ -368,6 +440,7 @@ class BackwardEuler(Integrator):
                              "make_integrator(..., network=net)")
         self._c = damping_matrix(self.network)  # C = -dF/dV, constant
         self._eye = None
+        self._tether = None
 
     def _step(self, X, V, dt):
         import scipy.sparse as sp
@@ -377,10 +450,21 @@ class BackwardEuler(Integrator):
         n = jx.shape[0]
         if self._eye is None:
             self._eye = sp.identity(n, format="csc")
-        F = self.force(X, V).ravel()
+        # the drive's force at t + dt (its time law explicit, at the state at t)
+        F = self._f(X, V, 0).ravel()
         v = V.ravel()
-        system = (self._eye + dt * self._c - (dt * dt) * jx).tocsc()
-        dv = splu(system).solve(dt * (F + dt * (jx @ v)))
+        c, kx = self._c, jx
+        if self._drive is not None and len(self._drive[1]):
+            # the tether is stiffness and damping on the moving nodes: implicit too
+            moving, (k_t, c_t) = self._drive[1], self._drive[4]
+            if self._tether is None or self._tether[0] is not moving:
+                on = np.zeros(n)
+                on[(3 * moving[:, None] + np.arange(3)).ravel()] = 1.0
+                self._tether = (moving, sp.diags(on))
+            diag = self._tether[1]
+            c, kx = c + c_t * diag, jx - k_t * diag
+        system = (self._eye + dt * c - (dt * dt) * kx).tocsc()
+        dv = splu(system).solve(dt * (F + dt * (kx @ v)))
         V1 = (v + dv).reshape(V.shape)
         return X + dt * V1, V1
 

@@ -49,24 +49,28 @@ def _free_dofs(n_nodes: int, free) -> np.ndarray:
     return (3 * nodes[:, None] + np.arange(3)).ravel()
 
 
-def first_order_matrix(net: SpringNetwork, points: np.ndarray, free=None) -> sp.csr_matrix:
+def first_order_matrix(net: SpringNetwork, points: np.ndarray, free=None,
+                       tether=(0.0, 0.0)) -> sp.csr_matrix:
     """(2m, 2m) A = [[0, I], [-K, -C]] on the free degrees of freedom (m = 3 x free nodes).
 
     ``free``: boolean mask (N,) or indices of the nodes the springs move (all if None).
+    ``tether``: (k, c), a stiffness and a damping on every free node (the smooth stroke's
+    tether, gait.stroke_force), added to K and C.
     """
     dofs = _free_dofs(net.n_nodes, free)
-    K = stiffness_matrix(net, points, symmetric=False)[dofs][:, dofs]
-    C = damping_matrix(net)[dofs][:, dofs]
     m = len(dofs)
+    K = stiffness_matrix(net, points, symmetric=False)[dofs][:, dofs] \
+        + tether[0] * sp.identity(m)
+    C = damping_matrix(net)[dofs][:, dofs] + tether[1] * sp.identity(m)
     return sp.bmat([[None, sp.identity(m)], [-K, -C]], format="csr")
 
 
 def spectrum(net: SpringNetwork, points: np.ndarray, free=None,
-             n_modes: int | None = None) -> np.ndarray:
+             n_modes: int | None = None, tether=(0.0, 0.0)) -> np.ndarray:
     """Eigenvalues of :func:`first_order_matrix`: all of them (dense) for small systems,
     else the ``n_modes`` (default :data:`N_MODES`) of largest modulus (scipy.sparse.linalg.eigs),
     which hold the stiffest, step-limiting modes."""
-    A = first_order_matrix(net, points, free)
+    A = first_order_matrix(net, points, free, tether)
     if A.shape[0] <= DENSE_LIMIT and n_modes is None:
         return np.linalg.eigvals(A.toarray())
     from scipy.sparse.linalg import eigs
@@ -137,13 +141,18 @@ def mode_stable_dt(method: str, w2: np.ndarray, c: np.ndarray) -> np.ndarray:
 
 
 def predict(net: SpringNetwork, points: np.ndarray, free=None, methods=None,
-            exact: bool | None = None) -> dict:
+            exact: bool | None = None, tether=(0.0, 0.0)) -> dict:
     """Method -> largest stable step (s) predicted from the linearised network at ``points``.
 
     ``exact=True`` takes the modes from the eigenvalues of A (:func:`spectrum`: all of them
     up to :data:`DENSE_LIMIT` rows, else the :data:`N_MODES` of largest modulus; on the 500-
     and 600-node whales the step-limiting modes are among those); ``False`` the fast estimate
     for large meshes (:func:`_fast_modes`); ``None`` picks exact up to twice DENSE_LIMIT rows.
+    ``tether``: (k, c) on every free node (the smooth stroke's tether), see
+    :func:`first_order_matrix`. It shifts every mode to (omega^2 + k, c_m + c) when K and C
+    share their modes; the fast estimate takes that shift for the stiffest mode, and for
+    forward Euler min(bound without it, c / k) (each mode's (c_m + c) / (omega^2 + k) is at
+    least the smaller of c_m / omega^2 and c / k).
     """
     methods = methods or tuple(EXPLICIT) + ("backward_euler",)
     dofs = _free_dofs(net.n_nodes, free)
@@ -151,11 +160,14 @@ def predict(net: SpringNetwork, points: np.ndarray, free=None, methods=None,
         exact = 2 * len(dofs) <= 2 * DENSE_LIMIT
     out = {}
     if exact:
-        w2, c = mode_parameters(spectrum(net, points, free))
+        w2, c = mode_parameters(spectrum(net, points, free, tether=tether))
         for m in methods:
             out[m] = float(mode_stable_dt(m, w2, c).min()) if len(w2) else np.inf
         return out
     top, fe_dt = _fast_modes(net, points, dofs, need_fe="forward_euler" in methods)
+    if tether[0] > 0 or tether[1] > 0:
+        top = (top[0] + tether[0], top[1] + tether[1])
+        fe_dt = min(fe_dt, tether[1] / tether[0]) if tether[0] > 0 else fe_dt
     for m in methods:
         if m == "forward_euler":
             out[m] = fe_dt
@@ -194,13 +206,14 @@ def _fast_modes(net, points, dofs, need_fe=True):
 
 
 def stable_dt(net: SpringNetwork, points: np.ndarray, method: str, free=None,
-              exact: bool | None = None) -> float:
+              exact: bool | None = None, tether=(0.0, 0.0)) -> float:
     """Largest stable step (s) of ``method`` predicted from the linearised network at
     ``points`` (inf for backward Euler). ``free``: the nodes the springs move (all if None);
-    ``exact``: see :func:`predict` (exact for small meshes, else the fast estimate)."""
+    ``exact``: see :func:`predict` (exact for small meshes, else the fast estimate);
+    ``tether``: (k, c) on every free node, see :func:`predict`."""
     if method == "backward_euler":
         return np.inf
-    return predict(net, points, free, methods=(method,), exact=exact)[method]
+    return predict(net, points, free, methods=(method,), exact=exact, tether=tether)[method]
 
 
 def paper_criterion_dt(F: np.ndarray) -> float:

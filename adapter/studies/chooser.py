@@ -53,6 +53,16 @@ def _trace(scene, nodes, method=None, dt=None):
     return np.array(out), a
 
 
+def _split_steps(scene, dt: float, duration: float) -> int:
+    """Extra steps the animator takes over ``duration`` at step ``dt``: the smooth stroke's
+    ramp end, when it falls inside a step, splits that step in two (Animator.advance_to)."""
+    if scene.stroke.reversal != "smooth":
+        return 0
+    ramp = scene.stroke.ramp_cycles * scene.period_s
+    k = ramp / dt
+    return int(0 < ramp < duration and abs(k - round(k)) > 1e-9)
+
+
 def _diff(a, b) -> float:
     return float(np.linalg.norm(a - b, axis=2).max())
 
@@ -102,7 +112,7 @@ def choose(scene, tolerance_m: float, max_dt: float | None = None, fraction: flo
             step = cap if e_cap <= budget / 2 else cap * (budget / 2 / e_cap) ** (1 / p)
         n_q = max(1, math.ceil(quarter / step - 1e-9))
         step = quarter / n_q
-        cost = STEP_COST[m] * 2 * n_q
+        cost = STEP_COST[m] * (2 * n_q + _split_steps(scene, step, 2 * quarter))
         options.append({"method": m, "dt": step, "stable_dt": limit, "cost": cost})
         log(f"  {m}: dt {step:.3g} s (stable {limit:.3g} s), cost {cost} per half-stroke")
     best = min(options, key=lambda o: o["cost"])

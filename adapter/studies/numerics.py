@@ -6,7 +6,9 @@
   method, predicted (:mod:`adapter.motion.stability`) and measured on the whale by bisection, with
   the paper's criterion dt |F_i| <= 1;
 - ``work_precision.csv`` / ``work_precision.png``: surface error against wall time over one
-  half-stroke, per method and step, against a converged RK4 reference;
+  half-stroke of the whole whale (the smooth stroke's force and the fluke gate imposed at every
+  stage of every method), per method and step, against a converged RK4 reference; the legend
+  gives each method's observed order (``whale_order_with_gate`` in the summary);
 - ``convergence.csv``: error against step on the spring network alone (no gate), the
   observed orders;
 - ``resolution.csv`` / ``resolution.png``: error against node count at fixed method;
@@ -217,7 +219,8 @@ def _network_run(a, method: str, n_per_quarter: int) -> tuple[np.ndarray, float]
 
 
 def _whale_run(a, method: str, n_per_quarter: int) -> tuple[np.ndarray, float]:
-    """The animator (gate, events) over one half-stroke: final positions and wall time."""
+    """The animator as it runs (the stroke's force and the fluke gate at every stage time,
+    the paper's events if any) over one half-stroke: final positions and wall time."""
     a.set_integrator(method, a.period / 4 / n_per_quarter)
     t0 = time.perf_counter()
     a.advance_to(2 * n_per_quarter)
@@ -362,7 +365,7 @@ def run(scene, out: Path, quick: bool = False, log=print) -> dict:
     _write_csv(out / "convergence.csv", conv)
 
     wp_scene = load_scene(preset="smoke") if quick else scene
-    log(f"work-precision on the {wp_scene.name} whale (gate and events included)")
+    log(f"work-precision on the {wp_scene.name} whale (stroke and gate included)")
     big = Animator.with_integrator(wp_scene)
     wp_steps = {"forward_euler": (1500, 3000, 6000), "symplectic_euler": (1500, 3000, 6000),
                 "verlet": (64, 128, 256, 512), "rk4": (48, 96, 192),
@@ -373,7 +376,8 @@ def run(scene, out: Path, quick: bool = False, log=print) -> dict:
     for r in wp:
         r["nodes"] = big.surface.n_nodes
     _write_csv(out / "work_precision.csv", wp)
-    _plot_xy({m: [r for r in wp if r["method"] == m] for m in METHODS}, "wall_s", "error_m",
+    _plot_xy({f"{m}: order {wp_orders[m]:.2f} (theory {THEORY_ORDER[m]})":
+              [r for r in wp if r["method"] == m] for m in METHODS}, "wall_s", "error_m",
              "wall time over one half-stroke (s)", "surface error (m)",
              f"Work-precision, {wp_scene.name} whale ({big.surface.n_nodes} nodes)",
              out / "work_precision.png")

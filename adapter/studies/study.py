@@ -40,15 +40,10 @@ from pathlib import Path
 import numpy as np
 
 from adapter.errors import AdapterError
-from adapter.foam.case import (
-    CASE_RECORD,
-    SUMMARY,
-    case_parameters,
-    mesh_case,
-    prepare_case,
-    read_record,
-    write_json,
-)
+from adapter.foam.case import CASE_RECORD, prepare_case, read_record, write_json
+from adapter.foam.mesh import mesh_case
+from adapter.foam.parameters import case_parameters
+from adapter.foam.summary import SUMMARY
 from adapter.studies import gci as G
 
 PLAN = "study-plan.json"
@@ -235,7 +230,7 @@ def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS
 
     ``runner(case, record, tolerance, ranks, progress) -> summary`` runs one pair (default
     :func:`adapter.foam.swimrun.run_swim_and_glide`); ``mesher(case)`` meshes a prepared case
-    (default :func:`adapter.foam.case.mesh_case`). Returns study.json's content."""
+    (default :func:`adapter.foam.mesh.mesh_case`). Returns study.json's content."""
     if runner is None:
         from adapter.foam.swimrun import run_swim_and_glide
 
