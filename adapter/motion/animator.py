@@ -42,7 +42,7 @@ class Animator:
     Parameters
     ----------
     scene : :class:`~adapter.scene.Scene`.
-    surface : the :class:`~adapter.body.geometry.WhaleSurface` to animate (built from the scene if
+    surface : the :class:`~adapter.body.surface.WhaleSurface` to animate (built from the scene if
         omitted).
     """
 

@@ -234,7 +234,7 @@ def _midline_nodes(surf, width: float = 0.02) -> np.ndarray:
 
 def surf_write(surf, path: Path, X: np.ndarray, d: np.ndarray, v: np.ndarray) -> None:
     """One frame: the deformed surface with displacement and velocity as point data."""
-    from adapter.body.geometry import write_surface
+    from adapter.body.meshfile import write_surface
 
     write_surface(path, X, surf.faces, point_data={"displacement": d, "velocity": v})
 
