@@ -35,9 +35,9 @@ from adapter.motion.integrators import METHODS
 from adapter.motion.stability import stable_dt
 
 CANDIDATE_NODES = (600, 1200, 2400, 5000, 11272)
-#: relative cost of one step, in force evaluations (backward Euler: a sparse LU, ~10)
-STEP_COST = {"forward_euler": 1, "symplectic_euler": 1, "verlet": 2, "rk4": 4,
-             "backward_euler": 10}
+#: relative cost of one step, in force evaluations (the methods' own ``step_cost``; backward
+#: Euler: a sparse LU, ~10)
+STEP_COST = {name: cls.step_cost for name, cls in METHODS.items()}
 
 
 def _trace(scene, nodes, method=None, dt=None):

@@ -38,9 +38,8 @@ from adapter.motion.animator import Animator
 from adapter.motion.integrators import METHODS, make_integrator
 from adapter.motion.stability import EXPLICIT, paper_criterion_dt, predict
 
-#: theory's order per method
-THEORY_ORDER = {"forward_euler": 1, "symplectic_euler": 1, "verlet": 2, "rk4": 4,
-                "backward_euler": 1}
+#: theory's order per method (the methods' own ``order``)
+THEORY_ORDER = {name: cls.order for name, cls in METHODS.items()}
 #: the small whale of the stability and order studies (nodes)
 SMALL_NODES = 500
 
