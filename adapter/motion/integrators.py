@@ -131,7 +131,7 @@ class Integrator:
 
         ``drive``: a time-dependent part of the right-hand side (the animator's stroke and
         fluke gate), evaluated at every stage's own time: an object with ``stage_arrays`` (the
-        tuple of :meth:`~adapter.animator.Animator.stage_arrays`) and
+        tuple of :attr:`~adapter.motion.drive.StrokeDrive.stage_arrays`) and
         ``stage_coefficients(t, dt, stages)`` (one row per stage). The state (X, V) handed in
         must already meet the drive's constraint at t (the gate placed); the fluke rows of the
         state returned are the method's, to be placed again at t + dt by the caller.

@@ -141,7 +141,7 @@ def deviation(X, V, ref):  # pragma: no cover - compiled
 
 
 #: the drive of a free network (no stroke force, no kinematic nodes), in the layout of
-#: :attr:`~adapter.motion.animator.Animator.stage_arrays`
+#: :attr:`~adapter.motion.drive.StrokeDrive.stage_arrays`
 NO_DRIVE = (np.zeros((0, 3)), np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0),
              np.zeros(2), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64),
              np.zeros((0, 3)), np.zeros(3), np.zeros(0))

@@ -29,6 +29,7 @@ import math
 
 import numpy as np
 
+from adapter.errors import UsageError
 from adapter.motion.animator import Animator
 from adapter.motion.dryrun import KEYPOINTS, keypoint_nodes
 from adapter.motion.integrators import METHODS
@@ -158,7 +159,7 @@ def _cmd_choose(args: argparse.Namespace) -> int:
     elif args.tolerance:
         tol, max_dt = args.tolerance, (1 / args.fps if args.fps else None)
     else:
-        raise SystemExit("whale-adapter choose: give --cell-size (coupled) or --tolerance")
+        raise UsageError("give --cell-size (coupled) or --tolerance")
     report = choose(scene, tol, max_dt, nodes=args.nodes, method=args.method, dt=args.dt,
                     log=print)
     print(json.dumps(report, indent=2))
