@@ -171,10 +171,11 @@ def _choose_flow_mesh(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from adapter.errors import AdapterError
-    from adapter.studies.study import RESULT, choose_flow_mesh
+    from adapter.studies.study import RESULT
+    from adapter.studies.study_analysis import choose_flow_mesh
 
     if not args.tolerance or args.tolerance <= 0:
-        raise AdapterError("choose --flow-study: give --tolerance, a fraction (0.05 = 5 %)")
+        raise UsageError("choose --flow-study: give --tolerance, a fraction (0.05 = 5 %)")
     path = Path(args.flow_study) / RESULT
     if not path.is_file():
         raise AdapterError(f"{path} is missing: run `whale-adapter study --out "
