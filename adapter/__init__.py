@@ -10,6 +10,8 @@ Public surface:
 
 from adapter.errors import (
     AdapterError,
+    CaseError,
+    FoamFileError,
     GeometryError,
     ProtocolError,
     SceneError,
@@ -41,6 +43,8 @@ __all__ = [
     "WhaleSurface",
     "build_surface",
     "AdapterError",
+    "CaseError",
+    "FoamFileError",
     "GeometryError",
     "ProtocolError",
     "SceneError",

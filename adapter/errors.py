@@ -25,6 +25,15 @@ class ProtocolError(AdapterError, ConnectionError):
     """A peer broke the step-server wire protocol (docs/protocol.md)."""
 
 
+class CaseError(AdapterError, ValueError):
+    """An OpenFOAM case folder cannot be prepared, run or read as asked: it already holds another
+    case, was not made by ``run-case``, or holds no figures yet; the message says what to do."""
+
+
+class FoamFileError(AdapterError, ValueError):
+    """An OpenFOAM file (mesh, field, dictionary) cannot be read; the message names the file."""
+
+
 class SolverRunError(AdapterError, RuntimeError):
     """An OpenFOAM utility or solver failed; the message points at its log file."""
 

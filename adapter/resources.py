@@ -47,5 +47,5 @@ def build_dir() -> Path:
 
 
 #: the boundary condition library build_plugin.sh writes (``WHALE_PLUGIN_LIB`` overrides it
-#: at run time: adapter.foam.case._plugin_lib)
+#: at run time: adapter.foam.dictionaries.plugin_lib)
 PLUGIN_LIB = build_dir() / "lib" / "libstepServerDisplacement.so"

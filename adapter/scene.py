@@ -202,6 +202,18 @@ class Case:
     mesh_motion: str = field(default="blended", metadata={"choices": ("blended", "laplacian")})
     motion_inner: float = field(default=1.0 / 30.0, metadata={"check": _non_negative})
     motion_outer: float = field(default=2.0 / 3.0, metadata={"check": _positive})
+    #: how the ranks are started (docs/cluster.md): a command before ``pimpleFoam -parallel``,
+    #: ``{np}`` replaced by the rank count (else ``-np N`` appended); "" is this machine's
+    #: ``mpirun --allow-run-as-root --oversubscribe -np {np}``
+    launcher: str = ""
+    #: the decomposition: "hierarchical" (``(N 1 1)`` for the run's N ranks), "case" (the
+    #: case's own system/decomposeParDict: only numberOfSubdomains is set) or a
+    #: decomposeParDict file (relative to the scene file), copied into the case and kept
+    decomposition: str = "hierarchical"
+    #: snappyHexMesh on the ranks (decomposePar of the blockMesh mesh, then reconstructParMesh)
+    parallel_meshing: bool = False
+    #: reconstructPar after a parallel run (else the written times stay in processor*/)
+    reconstruct: bool = False
 
 
 @dataclass(frozen=True)

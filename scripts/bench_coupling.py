@@ -17,6 +17,8 @@ import tempfile
 from pathlib import Path
 
 from adapter.foam import case as C
+from adapter.foam import mesh as M
+from adapter.foam import run as R
 from adapter.scene import load_scene
 
 _STATS = re.compile(r"^stepServer: ([0-9]+) requests, mean ([0-9.]+) us per exchange$", re.M)
@@ -32,14 +34,14 @@ def main() -> None:
     mesh = work / "mesh"
     if not (mesh / "constant" / "polyMesh" / "owner").exists():
         C.prepare_case(scene, mesh)
-        C.mesh_case(mesh)
+        M.mesh_case(mesh)
     print("| ranks | requests | mean coupling per step (us) | server links | patch points sent |")
     print("|---|---|---|---|---|")
     for n in args.ranks:
         case = work / f"np{n}"
         shutil.rmtree(case, ignore_errors=True)
         shutil.copytree(mesh, case)
-        C.run_case(case, ranks=n, progress=False)
+        R.run_case(case, ranks=n, progress=False)
         found = _STATS.findall((case / "log.pimpleFoam").read_text())
         requests, mean_us = found[-1]
         stats = json.loads((case / "adapter" / "server-stats.json").read_text())

@@ -29,6 +29,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from adapter.foam import case as C  # noqa: E402
+from adapter.foam import mesh as M  # noqa: E402
+from adapter.foam import run as R  # noqa: E402
 from adapter.scene import load_scene  # noqa: E402
 
 _MB = 1024.0 * 1024.0
@@ -63,13 +65,13 @@ def soak(case: Path, steps: int = 1000, write_every: int = 50, interval: float =
     t0 = time.perf_counter()
     if not (case / C.CASE_RECORD).is_file():
         C.prepare_case(load_scene(preset=preset), case)
-        C.mesh_case(case)
+        M.mesh_case(case)
     dt = _set_end(case, steps, write_every)
     result: dict = {}
 
     def run():
         try:
-            result["summary"] = C.run_case(case, progress=False)
+            result["summary"] = R.run_case(case, progress=False)
         except BaseException as exc:      # reported below, with the samples taken so far
             result["error"] = repr(exc)
 

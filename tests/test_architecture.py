@@ -203,6 +203,30 @@ def private_crossings(sources: dict[str, str]) -> list[str]:
     return bad
 
 
+#: the rooms split into modules of one idea so far (issue 14); the size limits hold in them
+SIZED_ROOMS = ("adapter.foam", "adapter.body", "adapter.motion", "adapter.studies")
+MAX_MODULE_LINES = 400
+MAX_CLASS_LINES = 250
+
+
+def oversized(sources: dict[str, str], rooms=SIZED_ROOMS) -> list[str]:
+    """Modules over :data:`MAX_MODULE_LINES` lines and classes over :data:`MAX_CLASS_LINES`
+    in ``rooms``."""
+    bad = []
+    for name, source in sorted(sources.items()):
+        if not any(name == r or name.startswith(r + ".") for r in rooms):
+            continue
+        n = len(source.splitlines())
+        if n > MAX_MODULE_LINES:
+            bad.append(f"{name}: {n} lines")
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, ast.ClassDef):
+                size = node.end_lineno - node.lineno + 1
+                if size > MAX_CLASS_LINES:
+                    bad.append(f"{name}.{node.name}: {size} lines")
+    return bad
+
+
 # -- the package ----------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
@@ -226,6 +250,12 @@ def test_each_room_imports_only_the_rooms_below_it(sources):
 
 def test_no_private_name_crosses_a_module_line(sources):
     assert private_crossings(sources) == []
+
+
+def test_modules_and_classes_are_small_in_the_split_rooms(sources):
+    assert oversized(sources) == []
+    big = {"adapter.foam.big": "class Big:\n" + "    x = 1\n" * MAX_CLASS_LINES}
+    assert oversized(big) == ["adapter.foam.big.Big: 251 lines"]
 
 
 # -- the checks catch what they are for -----------------------------------------------------

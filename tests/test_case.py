@@ -17,8 +17,14 @@ import pytest
 from PyFoam.RunDictionary.ParsedParameterFile import ParsedParameterFile
 
 from adapter.body.geometry import build_surface
-from adapter.errors import AdapterError
+from adapter.errors import AdapterError, SolverRunError
 from adapter.foam import case as C
+from adapter.foam import folders as F
+from adapter.foam import logs as LG
+from adapter.foam import mesh as M
+from adapter.foam import parameters as P
+from adapter.foam import run as R
+from adapter.foam import summary as S
 from adapter.scene import load_scene
 
 needs_openfoam = pytest.mark.skipif(shutil.which("pimpleFoam") is None,
@@ -45,7 +51,7 @@ def _read(path):
 def test_parameters_domain_and_cells():
     scene = load_scene(preset="default")
     lo, hi = np.array([0.0, -2.4, -1.6]), np.array([15.6, 2.4, 1.6])
-    p = C.case_parameters(scene, lo, hi)
+    p = P.case_parameters(scene, lo, hi)
     L, c = scene.geometry.length_m, scene.case
     assert p.domain_min[0] == pytest.approx(-c.upstream * L)
     assert p.domain_max[0] == pytest.approx(15.6 + c.downstream * L)
@@ -62,7 +68,7 @@ def test_parameters_domain_and_cells():
 
 def test_parameters_time_step_and_writes():
     scene = load_scene(preset="default")
-    p = C.case_parameters(scene, [0, -2, -2], [15, 2, 2])
+    p = P.case_parameters(scene, [0, -2, -2], [15, 2, 2])
     write_interval = scene.period_s / scene.case.writes_per_cycle
     # Courant-based step, rounded down to a whole fraction of the write interval, then to a
     # binary fraction (exact sums and time names)
@@ -84,7 +90,7 @@ def test_parameters_time_step_and_writes():
 
 def test_parameters_explicit_step_end_time_and_ranks():
     scene = load_scene(preset="default").replace(case={"dt_s": 0.05, "end_time_s": 1.0})
-    p = C.case_parameters(scene, [0, -2, -2], [15, 2, 2], ranks=3)
+    p = P.case_parameters(scene, [0, -2, -2], [15, 2, 2], ranks=3)
     assert p.delta_t <= 0.05
     assert p.delta_t > 0.045
     # the end is rounded to whole write intervals so that the run ends on a written time
@@ -103,7 +109,7 @@ def test_prepare_case_mesh_motion_laplacian(tmp_path, smoke, smoke_surface):
 
 def test_smoke_preset_is_small(smoke, smoke_surface):
     pts = smoke_surface.points
-    p = C.case_parameters(smoke, pts.min(0), pts.max(0))
+    p = P.case_parameters(smoke, pts.min(0), pts.max(0))
     assert int(np.prod(p.cells)) < 5000
     assert p.n_steps <= 10
     assert p.n_steps // p.steps_per_write >= 2  # at least two written times (restart tests)
@@ -237,7 +243,7 @@ def test_log_watch_parses_a_solver_log(tmp_path):
     log = tmp_path / "log.pimpleFoam"
     half = len(_SOLVER_LOG) // 2
     log.write_text(_SOLVER_LOG[:half])
-    watch = C.LogWatch(log)
+    watch = LG.LogWatch(log)
     watch.poll()
     log.write_text(_SOLVER_LOG)  # the log grew, a line was cut in the middle
     watch.poll()
@@ -259,7 +265,7 @@ def test_read_forces_merges_restarts(tmp_path):
         f"{t}\t({t} 0 1)\t({t - 1} 0 1)\t(1 0 0)\n" for t in (1, 2, 3)))
     (base / "2").mkdir()
     (base / "2" / "force.dat").write_text(header + "3\t(30 0 1e+02)\t(29 0 1)\t(1 0 0)\n")
-    f = C.read_forces(tmp_path)
+    f = S.read_forces(tmp_path)
     assert f.shape == (3, 10)
     assert f[:, 0].tolist() == [1, 2, 3]
     assert f[2, 1] == 30 and f[2, 3] == 100
@@ -275,7 +281,7 @@ def test_parse_check_mesh():
     Max skewness = 2.36 OK.
 Mesh OK.
 """
-    info = C.parse_check_mesh(text)
+    info = LG.parse_check_mesh(text)
     assert info == {"cells": 36605, "whale_faces": 1853, "whale_points": 2050,
                     "max_non_orthogonality": 56.8464626881224, "max_skewness": 2.36,
                     "mesh_ok": True}
@@ -291,7 +297,7 @@ def smoke_mesh(tmp_path_factory, smoke, smoke_surface):
         pytest.skip("OpenFOAM (pimpleFoam) is not on PATH")
     case = tmp_path_factory.mktemp("smoke") / "case"
     C.prepare_case(smoke, case, surface=smoke_surface, static_whale=True)
-    info = C.mesh_case(case)
+    info = M.mesh_case(case)
     return case, info
 
 
@@ -315,8 +321,8 @@ def test_mesh_failure_names_the_log(tmp_path, smoke, smoke_surface):
     case = tmp_path / "case"
     C.prepare_case(smoke, case, surface=smoke_surface, static_whale=True)
     (case / "system" / "blockMeshDict").write_text("FoamFile { class dictionary; }\nbroken\n")
-    with pytest.raises(C.SolverRunError, match="log.blockMesh"):
-        C.mesh_case(case)
+    with pytest.raises(SolverRunError, match="log.blockMesh"):
+        M.mesh_case(case)
 
 
 @pytest.mark.openfoam
@@ -326,16 +332,16 @@ def test_static_smoke_run(tmp_path, smoke_mesh):
     src, _ = smoke_mesh
     case = tmp_path / "case"
     shutil.copytree(src, case)
-    summary = C.run_case(case, progress=False)
+    summary = R.run_case(case, progress=False)
     record = C.read_record(case)
     assert summary["steps"] == record["parameters"]["n_steps"]
     assert summary["end_time_s"] == pytest.approx(record["parameters"]["end_time"], rel=1e-9)
     assert math.isfinite(summary["drag_N"]) and summary["drag_N"] > 0
     assert summary["worst_cell_quality"]["max_non_orthogonality_deg"] < 70
     assert summary["worst_cell_quality"]["min_cell_volume_m3"] > 0
-    assert json.loads((case / C.SUMMARY).read_text()) == summary
+    assert json.loads((case / S.SUMMARY).read_text()) == summary
     assert (case / "case.foam").exists()
-    written = [t for t, _ in C.time_dirs(case)]
+    written = [t for t, _ in F.time_dirs(case)]
     assert len(written) == 1 + record["parameters"]["n_steps"] // \
         record["parameters"]["steps_per_write"]
 
@@ -357,17 +363,17 @@ def test_fatal_error_text_is_taken_from_the_log():
 [1]
 FOAM parallel run exiting
 """
-    assert C.fatal_error(log) == ("stepServer: REQUEST at time 0.384 s: the server closed the "
+    assert LG.fatal_error(log) == ("stepServer: REQUEST at time 0.384 s: the server closed the "
                                   "connection (did the server stop?)\n"
                                   "socket /tmp/x/.whale-adapter.sock")
-    assert C.fatal_error("Time = 1\nExecutionTime = 2 s\n") is None
+    assert LG.fatal_error("Time = 1\nExecutionTime = 2 s\n") is None
 
 
 def test_format_summary_is_a_table_of_the_rows_present():
     summary = {"case": "/tmp/c", "preset": "smoke", "static_whale": False, "cells": 4303,
                "steps": 8, "end_time_s": 0.383, "adapter_s_per_step": 0.0125, "drag_N": None,
                "worst_cell_quality": {"max_non_orthogonality_deg": 57.84}}
-    text = C.format_summary(summary)
+    text = S.format_summary(summary)
     lines = text.splitlines()
     assert lines[0].split() == ["case", "/tmp/c"]
     assert any(line.split()[-2:] == ["4,303"] or line.endswith(" 4,303") for line in lines)
@@ -375,7 +381,7 @@ def test_format_summary_is_a_table_of_the_rows_present():
     assert "drag" not in text                                   # None: left out
     assert not text.lstrip().startswith("{")                    # not JSON
     # data-driven: another row list
-    assert C.format_summary({"x": 2.0}, rows=[("ex", "x", "{:.1f} m")]) == "ex  2.0 m"
+    assert S.format_summary({"x": 2.0}, rows=[("ex", "x", "{:.1f} m")]) == "ex  2.0 m"
 
 
 def test_run_case_refuses_a_foreign_folder_before_meshing(tmp_path, capsys):
@@ -448,8 +454,8 @@ def test_cell_sizes_follow_the_body_length(tmp_path, smoke, smoke_surface):
     surface = build_surface(scene)
     assert surface.length == pytest.approx(DOLPHIN_M)
     pts = surface.points
-    p = C.case_parameters(scene, pts.min(axis=0), pts.max(axis=0), length=surface.length)
-    whale = C.case_parameters(smoke, smoke_surface.points.min(axis=0),
+    p = P.case_parameters(scene, pts.min(axis=0), pts.max(axis=0), length=surface.length)
+    whale = P.case_parameters(smoke, smoke_surface.points.min(axis=0),
                               smoke_surface.points.max(axis=0), length=smoke_surface.length)
     # about the same mesh, scaled (the procedural whale's L = 15 m leaves out the flukes'
     # overhang; a mesh file's length is rostrum to the farthest x)
@@ -458,7 +464,7 @@ def test_cell_sizes_follow_the_body_length(tmp_path, smoke, smoke_surface):
                                               rel=0.1)
     # the older key, in metres, still wins when set
     metres = scene.replace(case={"background_cell_m": 4.0})
-    assert C.case_parameters(metres, pts.min(axis=0), pts.max(axis=0),
+    assert P.case_parameters(metres, pts.min(axis=0), pts.max(axis=0),
                              length=surface.length).smallest_cell_m == pytest.approx(1.0, rel=0.1)
 
 
@@ -474,7 +480,7 @@ def test_a_smaller_animal_meshes_and_runs_on_the_smoke_preset(tmp_path, smoke_su
     assert params.smallest_cell_m < 0.2
     assert params.domain_max[0] - params.domain_min[0] == pytest.approx(
         (1 + scene.case.upstream + scene.case.downstream) * DOLPHIN_M, rel=0.05)
-    info = C.mesh_case(case)
+    info = M.mesh_case(case)
     assert info["whale_faces"] > 50
-    summary = C.run_case(case, progress=False)
+    summary = R.run_case(case, progress=False)
     assert summary["steps"] == C.read_record(case)["parameters"]["n_steps"]

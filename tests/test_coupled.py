@@ -17,6 +17,9 @@ import pytest
 from adapter.body.geometry import build_surface
 from adapter.coupling.mapping import DEFAULT_TOLERANCE, PatchMap
 from adapter.foam import case as C
+from adapter.foam import folders as F
+from adapter.foam import mesh as M
+from adapter.foam import run as R
 from adapter.motion.animator import Animator
 from adapter.scene import load_scene
 
@@ -88,7 +91,7 @@ def surface(smoke):
 def meshed(tmp_path_factory, smoke, surface):
     case = tmp_path_factory.mktemp("coupled") / "mesh"
     C.prepare_case(smoke, case, surface=surface)
-    C.mesh_case(case)
+    M.mesh_case(case)
     return case
 
 
@@ -102,7 +105,7 @@ def _expected(case, smoke, surface, t) -> np.ndarray:
 def test_coupled_smoke_run_and_restart(tmp_path, meshed, smoke, surface, ranks):
     case = tmp_path / "case"
     shutil.copytree(meshed, case)
-    summary = C.run_case(case, ranks=ranks, progress=False)
+    summary = R.run_case(case, ranks=ranks, progress=False, reconstruct=True)
     record = C.read_record(case)
     assert summary["steps"] == record["parameters"]["n_steps"]
     assert summary["ranks"] == ranks
@@ -115,7 +118,7 @@ def test_coupled_smoke_run_and_restart(tmp_path, meshed, smoke, surface, ranks):
         assert summary["patch_points"] >= record["mesh"]["whale_points"]
     assert summary["max_mapping_distance_m"] < DEFAULT_TOLERANCE * smoke.geometry.length_m
 
-    times = C.time_dirs(case)
+    times = F.time_dirs(case)
     (t_last, last), (t_prev, _) = times[-1], times[-2]
     got = _whale_displacement(case, last)
     want = _expected(case, smoke, surface, t_last)
@@ -128,8 +131,8 @@ def test_coupled_smoke_run_and_restart(tmp_path, meshed, smoke, surface, ranks):
     again = tmp_path / "restart"
     shutil.copytree(case, again, ignore=shutil.ignore_patterns("processor*"))
     shutil.rmtree(again / last.name)
-    C.run_case(again, ranks=ranks, progress=False)
-    assert C.time_dirs(again)[-1][0] == t_last
+    R.run_case(again, ranks=ranks, progress=False, reconstruct=True)
+    assert F.time_dirs(again)[-1][0] == t_last
     np.testing.assert_array_equal(_whale_displacement(again, again / last.name), got)
     assert t_prev < t_last
 
@@ -143,10 +146,11 @@ def test_run_case_over_tcp_with_a_token_from_the_environment(tmp_path, meshed, s
     monkeypatch.setenv("WHALE_ADAPTER_TOKEN", token)
     case = tmp_path / "case"
     shutil.copytree(meshed, case)
-    C.run_case(case, ranks=2, progress=False, host="127.0.0.1", port=0)
+    R.run_case(case, ranks=2, progress=False, host="127.0.0.1", port=0,
+               reconstruct=True)
     log = (case / "log.pimpleFoam").read_text()
     assert "stepServer: connected to tcp://127.0.0.1:" in log
-    t_last, last = C.time_dirs(case)[-1]
+    t_last, last = F.time_dirs(case)[-1]
     np.testing.assert_allclose(_whale_displacement(case, last),
                                _expected(case, smoke, surface, t_last), rtol=0, atol=1e-9)
     holding = [p for p in case.rglob("*") if p.is_file() and token.encode() in p.read_bytes()]

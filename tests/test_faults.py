@@ -33,6 +33,10 @@ from adapter.coupling.protocol import HEADER, MAGIC, ErrorCode, MessageType
 from adapter.coupling.server import StepServer
 from adapter.errors import AdapterError, GeometryError, SceneError
 from adapter.foam import case as C
+from adapter.foam import folders as F
+from adapter.foam import mesh as M
+from adapter.foam import run as R
+from adapter.foam import tools as T
 from adapter.motion.animator import Animator
 from adapter.motion.integrators import make_integrator
 from adapter.scene import load_scene
@@ -658,7 +662,7 @@ def _whale_displacement(time_dir: Path) -> np.ndarray:
 def _written(case: Path) -> dict:
     """name -> {relative file: bytes} of every time folder but 0."""
     out = {}
-    for t, d in C.time_dirs(case):
+    for t, d in F.time_dirs(case):
         if t > 0:
             out[d.name] = {str(f.relative_to(d)): f.read_bytes() for f in d.rglob("*")
                            if f.is_file()}
@@ -678,12 +682,12 @@ def foam_case(tmp_path_factory, scene):
     base = tmp_path_factory.mktemp("faults")
     mesh = base / "mesh"
     C.prepare_case(scene, mesh)
-    C.mesh_case(mesh)
+    M.mesh_case(mesh)
     dt = _set_end(mesh, FAULT_STEPS)
     ref = base / "reference"
     shutil.copytree(mesh, ref)
-    C.run_case(ref, progress=False)
-    written = {d.name: _whale_displacement(d) for t, d in C.time_dirs(ref) if t > 0}
+    R.run_case(ref, progress=False)
+    written = {d.name: _whale_displacement(d) for t, d in F.time_dirs(ref) if t > 0}
     assert len(written) == FAULT_STEPS // 4
     return mesh, dt, written
 
@@ -696,7 +700,7 @@ def _launch(case: Path):
          "--wait", "300"], cwd=case, stdout=log, stderr=subprocess.STDOUT)
     _wait_for_socket(case, server)
     foam_log = open(case / "log.pimpleFoam", "w")  # noqa: SIM115
-    foam = subprocess.Popen(["pimpleFoam"], cwd=case, env=C.foam_env(), stdout=foam_log,
+    foam = subprocess.Popen(["pimpleFoam"], cwd=case, env=T.foam_env(), stdout=foam_log,
                             stderr=subprocess.STDOUT)
     return server, foam, [log, foam_log]
 
@@ -725,7 +729,7 @@ def _stop(*procs) -> None:
 def _resume_and_compare(case: Path, reference: dict, before: dict) -> None:
     """run-case again (server and pimpleFoam from the latest time): the written times from
     before are untouched, and every written time equals the uninterrupted run's, bit for bit."""
-    C.run_case(case, progress=False)
+    R.run_case(case, progress=False)
     after = _written(case)
     for name, files in before.items():
         assert after[name] == files, f"time {name} changed on resume"
@@ -837,8 +841,8 @@ def foam_case_2ranks(tmp_path_factory, foam_case):
     mesh, _, _ = foam_case
     ref = tmp_path_factory.mktemp("faults2") / "reference"
     shutil.copytree(mesh, ref)
-    C.run_case(ref, ranks=2, progress=False)
-    written = {d.name: _whale_displacement(d) for t, d in C.time_dirs(ref) if t > 0}
+    R.run_case(ref, ranks=2, progress=False, reconstruct=True)
+    written = {d.name: _whale_displacement(d) for t, d in F.time_dirs(ref) if t > 0}
     assert len(written) == FAULT_STEPS // 4
     return written
 
@@ -879,14 +883,14 @@ def test_parallel_run_killed_resumes_from_the_ranks(tmp_path, foam_case, foam_ca
     assert run.returncode == 2, (out, err)
     # run-case says OpenFOAM's own message, not only "see log.pimpleFoam"
     assert re.search(r"did the server stop\?|the server closed the connection", err), err
-    assert [t for t, _ in C.time_dirs(case)] == [0.0]          # nothing reconstructed yet
-    latest = C._processor_latest(case)
+    assert [t for t, _ in F.time_dirs(case)] == [0.0]          # nothing reconstructed yet
+    latest = F.processor_latest(case)
     assert latest is not None and latest >= 8 * dt
-    before = {p.name: _written(p) for p in C._processor_dirs(case)}
+    before = {p.name: _written(p) for p in F.processor_dirs(case)}
     decomposed = (case / "log.decomposePar").stat().st_mtime_ns
-    assert C.resume_time(case) == latest
+    assert F.resume_time(case) == latest
 
-    C.run_case(case, ranks=2, progress=False)
+    R.run_case(case, ranks=2, progress=False, reconstruct=True)
     assert (case / "log.decomposePar").stat().st_mtime_ns == decomposed   # not re-decomposed
     for name, times in before.items():
         after = _written(case / name)

@@ -20,6 +20,7 @@ from pathlib import Path
 import pytest
 
 from adapter.foam import case as C
+from adapter.foam import summary as S
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -99,5 +100,5 @@ def test_smoke_run_case(installed):
     r = _run([str(bin_dir / "whale-adapter"), "run-case", "--preset", "smoke", "--case", "case"],
              cwd=work, env=env)
     assert "largest non-orthogonality" in r.stdout
-    assert (work / "case" / C.SUMMARY).is_file()
+    assert (work / "case" / S.SUMMARY).is_file()
     assert (work / "case" / "adapter" / "keypoints.csv").is_file()       # the server ran

@@ -35,6 +35,7 @@ import numpy as np
 import pytest
 
 from adapter.foam import case as C
+from adapter.foam import tools as T
 
 from .channel_case import (
     FV_SCHEMES,
@@ -228,14 +229,14 @@ def _run(tmp_path_factory, motion: str, ranks: int = 1, merged: bool = False):
     """Make and run a case; its folder."""
     case = tmp_path_factory.mktemp(f"loads-{motion}-{ranks}{'-regions' if merged else ''}")
     make_case(case, motion, merged=merged)
-    C.run_utility(case, ["blockMesh"])
+    T.run_utility(case, ["blockMesh"])
     if ranks == 1:
-        C.run_utility(case, ["pimpleFoam"])
+        T.run_utility(case, ["pimpleFoam"])
     else:
         (case / "system" / "decomposeParDict").write_text(
             HEADER.format(cls="dictionary", obj="decomposeParDict") + _DECOMPOSE)
-        C.run_utility(case, ["decomposePar"])
-        C.run_utility(case, ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", "2",
+        T.run_utility(case, ["decomposePar"])
+        T.run_utility(case, ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", "2",
                              "pimpleFoam", "-parallel"], log_name="pimpleFoam")
     return case
 

@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 
 from adapter.foam import case as C
+from adapter.foam import tools as T
 from adapter.foam.yplus import read_boundary, read_faces, read_points
 
 from .channel_case import (
@@ -147,9 +148,9 @@ def _set_end(case, steps: int) -> None:
 
 def _pimple(case, ranks: int, log: str) -> None:
     if ranks == 1:
-        C.run_utility(case, ["pimpleFoam"], log_name=log)
+        T.run_utility(case, ["pimpleFoam"], log_name=log)
     else:
-        C.run_utility(case, ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", "2",
+        T.run_utility(case, ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", "2",
                              "pimpleFoam", "-parallel"], log_name=log)
 
 
@@ -157,9 +158,9 @@ def run(tmp_path_factory, motion: str, rotation: bool, ranks: int = 1, restart: 
     """Make and run a case (with ``restart``: stop at RESTART_STEP, then continue); its folder."""
     case = tmp_path_factory.mktemp(f"motion-{motion}-{int(rotation)}-{ranks}-{int(restart)}")
     make_case(case, motion, rotation)
-    C.run_utility(case, ["blockMesh"])
+    T.run_utility(case, ["blockMesh"])
     if ranks > 1:
-        C.run_utility(case, ["decomposePar"])
+        T.run_utility(case, ["decomposePar"])
     if restart:
         _set_end(case, RESTART_STEP)
         _pimple(case, ranks, "pimpleFoam-first")
@@ -266,7 +267,7 @@ def test_restart_from_an_odd_step_reproduces_the_mesh_and_flow(tmp_path_factory,
     if ranks > 1:
         # the two ranks' mesh is the serial one
         serial = run(tmp_path_factory, "rotate", True, 1)
-        C.run_utility(straight, ["reconstructPar", "-latestTime"])
+        T.run_utility(straight, ["reconstructPar", "-latestTime"])
         t = _tname(N_STEPS)
         np.testing.assert_allclose(read_points(straight / t / "polyMesh" / "points"),
                                    read_points(serial / t / "polyMesh" / "points"),

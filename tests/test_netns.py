@@ -25,6 +25,11 @@ import pytest
 
 from adapter.coupling.server import ENDPOINT_NAME, TOKEN_ENV
 from adapter.foam import case as C
+from adapter.foam import dictionaries as D
+from adapter.foam import folders as F
+from adapter.foam import mesh as M
+from adapter.foam import run as R
+from adapter.foam import tools as T
 
 from .conftest import NEEDS_FOAM_AND_PLUGIN
 from .test_coupled import _whale_displacement
@@ -83,7 +88,7 @@ def namespaces(request):
 def meshed(tmp_path_factory, smoke_scene, smoke_surface):
     case = tmp_path_factory.mktemp("netns") / "mesh"
     C.prepare_case(smoke_scene, case, surface=smoke_surface)
-    C.mesh_case(case)
+    M.mesh_case(case)
     return case
 
 
@@ -92,8 +97,8 @@ def unix_reference(tmp_path_factory, meshed):
     """The serial run on the case's UNIX socket: (last time name, whale displacement)."""
     case = tmp_path_factory.mktemp("netns") / "unix"
     shutil.copytree(meshed, case)
-    C.run_case(case, ranks=1, progress=False)
-    name, last = C.time_dirs(case)[-1][1].name, C.time_dirs(case)[-1][1]
+    R.run_case(case, ranks=1, progress=False)
+    name, last = F.time_dirs(case)[-1][1].name, F.time_dirs(case)[-1][1]
     return name, _whale_displacement(case, last)
 
 
@@ -110,7 +115,7 @@ def test_server_and_solver_in_two_network_namespaces(tmp_path, meshed, unix_refe
     case = tmp_path / "case"
     shutil.copytree(meshed, case)
     token = secrets.token_hex(16)
-    env = C.foam_env()
+    env = T.foam_env()
     env[TOKEN_ENV] = token
     env["PYTHONPATH"] = str(REPO)
 
@@ -128,15 +133,15 @@ def test_server_and_solver_in_two_network_namespaces(tmp_path, meshed, unix_refe
             time.sleep(0.2)
         assert token not in endpoint.read_text()
 
-        C._restore_zero(case)
+        F.restore_zero(case)
         if ranks == 1:
             rc = _in_ns(ns_solver, ["pimpleFoam"], case, env, "log.pimpleFoam")
         else:
-            d = C.parsed_dict(case / "system" / "decomposeParDict")
+            d = D.parsed_dict(case / "system" / "decomposeParDict")
             d["numberOfSubdomains"] = ranks
             d["coeffs"]["n"] = f"({ranks} 1 1)"
             d.writeFile()
-            C.run_utility(case, ["decomposePar", "-force"])
+            T.run_utility(case, ["decomposePar", "-force"])
             rc = _in_ns(ns_solver, ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np",
                                     str(ranks), "-x", TOKEN_ENV, "pimpleFoam", "-parallel"],
                         case, env, "log.pimpleFoam")
@@ -148,7 +153,7 @@ def test_server_and_solver_in_two_network_namespaces(tmp_path, meshed, unix_refe
             server.wait()
         server_log.close()
     if ranks > 1:
-        C.run_utility(case, ["reconstructPar", "-newTimes"])
+        T.run_utility(case, ["reconstructPar", "-newTimes"])
 
     # one link, over TCP from the solver's namespace
     log = (case / "adapter" / "server.log").read_text()

@@ -11,6 +11,9 @@ import pytest
 
 from adapter.errors import AdapterError
 from adapter.foam import case as C
+from adapter.foam import dictionaries as D
+from adapter.foam import parameters as P
+from adapter.foam import summary as SM
 from adapter.studies import gci as G
 from adapter.studies import study as S
 from adapter.studies import study_analysis as A
@@ -86,23 +89,23 @@ def test_three_meshes_scale_every_cell_by_the_ratio(tmp_path, smoke_scene, smoke
                                                                      rel=1e-5)
         assert sc.case.refinement == scene.case.refinement
         params[k] = C.prepare_case(sc, tmp_path / f"m{k}", surface=smoke_surface)
-        snappy = C.parsed_dict(tmp_path / f"m{k}" / "system" / "snappyHexMeshDict")
+        snappy = D.parsed_dict(tmp_path / f"m{k}" / "system" / "snappyHexMeshDict")
         assert snappy["addLayersControls"]["expansionRatio"] == pytest.approx(
             sc.case.layer_expansion)
         assert snappy["addLayersControls"]["firstLayerThickness"] == pytest.approx(0.05)
     h = {k: math.prod(params[k].cell_size) ** (1 / 3) for k in params}
     assert h[2] / h[1] == pytest.approx(r, rel=0.08) and h[3] / h[2] == pytest.approx(r, rel=0.08)
     assert params[1].delta_t == params[2].delta_t == params[3].delta_t
-    half = C.case_parameters(cases["mesh-2/dt-half"]["scene"], smoke_surface.points.min(axis=0),
+    half = P.case_parameters(cases["mesh-2/dt-half"]["scene"], smoke_surface.points.min(axis=0),
                              smoke_surface.points.max(axis=0), length=smoke_surface.length)
     assert half.delta_t == params[2].delta_t / 2
     # the step is the scene's own mesh's automatic one, not the finest mesh's
-    own_dt = C.case_parameters(scene, smoke_surface.points.min(axis=0),
+    own_dt = P.case_parameters(scene, smoke_surface.points.min(axis=0),
                                smoke_surface.points.max(axis=0),
                                length=smoke_surface.length).delta_t
     assert params[1].delta_t == own_dt
     if finest == "refined":
-        assert params[1].delta_t != C.case_parameters(
+        assert params[1].delta_t != P.case_parameters(
             S.mesh_scene(scene, 1, r, finest), smoke_surface.points.min(axis=0),
             smoke_surface.points.max(axis=0), length=smoke_surface.length).delta_t
     assert cases["mesh-2/speed-1.1"]["scene"].flow.speed_m_s == pytest.approx(
@@ -146,7 +149,7 @@ class _Model:
                 "mass_kg": 2000.0, "periodic_change": {"reached": True}}
         summary = {"swimming_cost": cost, "steps": 10, "step_s": 0.5 * 1e5 / h**3 / 1e4,
                    "cells": record["mesh"]["cells"], "yplus": {}}
-        C.write_json(case / C.SUMMARY, summary)
+        C.write_json(case / SM.SUMMARY, summary)
         return summary
 
 
@@ -243,7 +246,7 @@ def test_study_on_the_smoke_whale_with_pimplefoam(tmp_path, smoke_scene, smoke_s
     for k in (1, 2, 3):
         rec = C.read_record(out / f"mesh-{k}" / "case")
         assert rec["parameters"]["delta_t"] == 1.0
-        assert (out / f"mesh-{k}" / "case" / "gliding" / C.SUMMARY).is_file()
+        assert (out / f"mesh-{k}" / "case" / "gliding" / SM.SUMMARY).is_file()
     assert set(study["meshes"]["figures"]) == {"gliding_drag", "swimming_fx", "swimming_power"}
     assert (out / S.CHART).is_file() and (out / S.RESULT).is_file()
     # run again: every case finished, nothing runs

@@ -15,6 +15,8 @@ import pytest
 
 from adapter.errors import AdapterError
 from adapter.foam import case as C
+from adapter.foam import mesh as M
+from adapter.foam import run as R
 from adapter.foam import yplus as Y
 
 needs_openfoam = pytest.mark.skipif(shutil.which("pimpleFoam") is None,
@@ -238,13 +240,13 @@ def test_smoke_case_with_layers_and_yplus(tmp_path, smoke_scene, smoke_surface):
     scene = smoke_scene.replace(case={"layers": 1, "first_layer_m": 0.25})
     case = tmp_path / "case"
     C.prepare_case(scene, case, surface=smoke_surface, static_whale=True)
-    info = C.mesh_case(case)
+    info = M.mesh_case(case)
     layers = info["layers"]
     assert layers["faces"] == info["whale_faces"]
     assert 0 < layers["area_with_layers"] <= 1
     assert 0 < layers["face_coverage"] <= 1
     assert C.read_record(case)["mesh"]["layers"] == layers
-    C.run_case(case, progress=False)
+    R.run_case(case, progress=False)
     s = Y.yplus_stats(case)
     assert s["faces"] == info["whale_faces"]
     assert 50 < s["area_m2"] < 500

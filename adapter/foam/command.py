@@ -1,5 +1,6 @@
-"""The ``run-case`` command: prepare, mesh and run the case (:mod:`adapter.foam.case`), or the
-gliding + swimming pair of a scene that asks for it (:mod:`adapter.foam.swimrun`)."""
+"""The ``run-case`` command: prepare, mesh and run the case (:mod:`adapter.foam.case`,
+:mod:`adapter.foam.mesh`, :mod:`adapter.foam.run`), or the gliding + swimming pair of a scene
+that asks for it (:mod:`adapter.foam.swimrun`)."""
 
 from __future__ import annotations
 
@@ -7,18 +8,19 @@ import argparse
 from pathlib import Path
 
 from adapter.coupling.server import resolve_token
-from adapter.errors import AdapterError
+from adapter.errors import CaseError
 from adapter.foam.case import (
     CASE_RECORD,
-    SUMMARY,
-    format_summary,
-    mesh_case,
-    parsed_dict,
+    parallel_settings,
     prepare_case,
     read_record,
-    resume_time,
-    run_case,
+    write_json,
 )
+from adapter.foam.dictionaries import DECOMPOSITIONS, choose_decomposition, parsed_dict
+from adapter.foam.folders import resume_time
+from adapter.foam.mesh import mesh_case
+from adapter.foam.run import run_case
+from adapter.foam.summary import SUMMARY, format_summary
 from adapter.foam.swimrun import COST_ROWS, run_swim_and_glide
 from adapter.scene import load_scene
 
@@ -48,12 +50,29 @@ def register(subparsers) -> None:
     p.add_argument("--token-file", default=None, metavar="FILE",
                    help="the shared secret, in a file only its owner may read (chmod 600); "
                         "default $WHALE_ADAPTER_TOKEN. Never written into the case")
+    p.add_argument("--launcher", default=None, metavar="CMD",
+                   help="how the MPI ranks are started, e.g. 'srun -n {np}' or 'mpirun "
+                        "--hostfile hosts -np {np}' ({np}: the rank count; without it -np N "
+                        "is appended); default: the scene's case.launcher, else mpirun on this "
+                        "machine (docs/cluster.md)")
+    p.add_argument("--decomposition", default=None, metavar="D",
+                   help="hierarchical ((N 1 1), the default), case (keep the case's "
+                        "own system/decomposeParDict, setting only numberOfSubdomains) or a "
+                        "decomposeParDict file to copy into the case and keep")
+    p.add_argument("--parallel-mesh", action="store_true", default=None,
+                   help="run snappyHexMesh on the --np ranks (decomposePar of the blockMesh "
+                        "mesh, then reconstructParMesh)")
+    p.add_argument("--reconstruct", action="store_true", default=None,
+                   help="reconstructPar after a parallel run (default: the scene's "
+                        "case.reconstruct; the written times stay in processor*/)")
     p.set_defaults(func=_cmd_run_case)
 
 
 def _cmd_run_case(args: argparse.Namespace) -> int:
     if args.ranks is not None and args.ranks < 1:
-        raise AdapterError(f"--np: expected at least 1 rank, got {args.ranks}")
+        raise CaseError(f"--np: expected at least 1 rank, got {args.ranks}")
+    if args.decomposition not in (None, *DECOMPOSITIONS):
+        args.decomposition = str(Path(args.decomposition).resolve())   # a file, from here
     case = Path(args.case or Path("runs") / (args.preset or "default"))
     exists = (case / "system" / "controlDict").exists()
     if exists:
@@ -66,15 +85,21 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
         if t0 >= float(control["endTime"]) - 0.5 * float(control["deltaT"]):
             print(f"it has reached its end time ({float(control['endTime']):.6g} s): nothing to "
                   "run (to run it longer, raise endTime in its system/controlDict)")
+        if args.decomposition is not None:
+            _record_decomposition(case, record, args.decomposition)
     else:
         scene = load_scene(args.scene, preset=args.preset)
+        given = {"launcher": args.launcher, "decomposition": args.decomposition,
+                 "parallel_meshing": args.parallel_mesh, "reconstruct": args.reconstruct}
+        scene = scene.replace(case={k: v for k, v in given.items() if v is not None})
         params = prepare_case(scene, case, ranks=args.ranks, static_whale=args.static_whale,
                               scene_file=args.scene)
         print(f"prepared {case}: background {params.cells[0]}x{params.cells[1]}x{params.cells[2]}"
               f" cells, smallest cell {params.smallest_cell_m:.3g} m, dt {params.delta_t:.4g} s,"
               f" {params.n_steps} steps to t = {params.end_time:.4g} s")
     if args.mesh_only or not (case / "constant" / "polyMesh" / "owner").exists():
-        info = mesh_case(case)
+        info = mesh_case(case, ranks=args.ranks, parallel=args.parallel_mesh,
+                         launcher=args.launcher)
         print(f"meshed {case}: {info.get('cells')} cells, whale patch {info.get('whale_faces')} "
               f"faces / {info.get('whale_points')} points, max non-orthogonality "
               f"{info.get('max_non_orthogonality')} deg, {info['mesh_s']} s")
@@ -83,16 +108,25 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
     record = read_record(case)
     if record.get("gliding", False) and not record.get("static_whale"):
         summary = run_swim_and_glide(case, record, float(record["periodic_tolerance"]),
-                                     ranks=args.ranks)
+                                     ranks=args.ranks, launcher=args.launcher,
+                                     reconstruct=args.reconstruct)
         print(f"\n{case}: what swimming costs the whale")
         print(format_summary(summary, COST_ROWS))
         print(f"(all figures: {case / SUMMARY}; picture: {case / 'forces.png'})")
         return 0
     token = resolve_token(args.token_file)
-    summary = run_case(case, ranks=args.ranks, host=args.host, port=args.port, token=token)
+    summary = run_case(case, ranks=args.ranks, host=args.host, port=args.port, token=token,
+                       launcher=args.launcher, reconstruct=args.reconstruct)
     print(format_summary(summary))
     print(f"(all figures: {case / SUMMARY})")
     return 0
+
+
+def _record_decomposition(case: Path, record: dict, value: str) -> None:
+    """--decomposition on a prepared case: recorded (a file copied in) for this and later runs."""
+    record["parallel"] = parallel_settings(record, decomposition=choose_decomposition(
+        case, value))
+    write_json(case / CASE_RECORD, record)
 
 
 def _recorded(record: dict) -> str:
@@ -114,7 +148,7 @@ def _check_same_case(case: Path, record: dict, args: argparse.Namespace) -> None
     if args.static_whale and not record.get("static_whale"):
         differs.append("--static-whale (recorded: a coupled, moving whale)")
     if differs:
-        raise AdapterError(
+        raise CaseError(
             f"{case} already holds a case of another set-up: {'; '.join(differs)} "
             f"(from {case / CASE_RECORD}). Run it as it is with `whale-adapter run-case --case "
             f"{case}` (no --scene/--preset), or prepare the new one in another --case "

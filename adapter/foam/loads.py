@@ -17,7 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from adapter.errors import AdapterError
+from adapter.errors import CaseError
+from adapter.foam.folders import time_dirs
 
 #: the function object's name in system/controlDict (its postProcessing folder)
 LOADS_NAME = "loads"
@@ -31,7 +32,7 @@ def read_loads(case_dir, name: str = LOADS_NAME) -> dict:
     base = Path(case_dir) / "postProcessing" / name
     rows: dict = {}
     header: list | None = None
-    files = sorted(base.glob("*/loads.dat"), key=lambda p: float(p.parent.name))
+    files = [d / "loads.dat" for _, d in time_dirs(base) if (d / "loads.dat").is_file()]
     for f in files:
         for line in f.read_text().splitlines():
             if line.startswith("#"):
@@ -192,8 +193,8 @@ def cost_figures(glide_drag: float, swim_fx: float, power: float, speed: float,
     efficiency is that thrust's power over the power put into the water,
     ``(D_glide - Fx_swim) U / P``; the cost of transport is ``P / (m U)`` (J per kg and m)."""
     if not (power > 0):
-        raise AdapterError(f"the mean power into the water is {power:.4g} W, not positive: "
-                           "the stroke takes energy from the flow; check the run's loads.dat")
+        raise CaseError(f"the mean power into the water is {power:.4g} W, not positive: "
+                        "the stroke takes energy from the flow; check the run's loads.dat")
     thrust = glide_drag - swim_fx
     return {
         "thrust_N": thrust,

@@ -23,9 +23,14 @@ import math
 import shutil
 from pathlib import Path
 
-from adapter.errors import AdapterError
+from adapter.errors import CaseError
 from adapter.foam import loads as ld
-from adapter.foam.case import SUMMARY, parsed_dict, read_record, run_case, time_dirs, write_json
+from adapter.foam.case import read_record, write_json
+from adapter.foam.dictionaries import parsed_dict
+from adapter.foam.folders import time_dirs
+from adapter.foam.parallel import reconstruct_new_times
+from adapter.foam.run import run_case
+from adapter.foam.summary import SUMMARY
 
 GLIDING = "gliding"
 
@@ -61,8 +66,12 @@ def _stats(case: Path, period: float, start_up: float) -> ld.CycleStats | None:
 
 
 def run_swim_and_glide(case: Path, scene_record: dict, tolerance: float, ranks=None,
-                       progress: bool = True) -> dict:
-    """Run gliding then swimming (each resumed if it was stopped); the answer."""
+                       progress: bool = True, launcher: str | None = None,
+                       reconstruct: bool | None = None) -> dict:
+    """Run gliding then swimming (each resumed if it was stopped); the answer. ``ranks``,
+    ``launcher``, ``reconstruct``: as :func:`~adapter.foam.run.run_case`'s."""
+    options = {"ranks": ranks, "progress": progress, "launcher": launcher,
+               "reconstruct": reconstruct}
     period = float(scene_record["period_s"])
     ramp = float(scene_record.get("ramp_s", period))
     glide = prepare_gliding(case)
@@ -75,11 +84,11 @@ def run_swim_and_glide(case: Path, scene_record: dict, tolerance: float, ranks=N
             return f"steady: mean drag changed {change:.2%} over the last stroke period"
         return None
 
-    g_summary = _run_unless_done(glide, ranks, progress, glide_steady)
+    g_summary = _run_unless_done(glide, glide_steady, options)
     g_stats = _stats(glide, period, period)
     if g_stats is None or not len(g_stats.starts):
-        raise AdapterError(f"the gliding run {glide} wrote no complete stroke period of loads; "
-                           "raise case.cycles")
+        raise CaseError(f"the gliding run {glide} wrote no complete stroke period of loads; "
+                        "raise case.cycles")
     drag = float(g_stats.mean_fx[-1])
 
     def swim_periodic(c):
@@ -90,11 +99,11 @@ def run_swim_and_glide(case: Path, scene_record: dict, tolerance: float, ranks=N
                     f" {dp:.2%}, over the last two cycles")
         return None
 
-    s_summary = _run_unless_done(case, ranks, progress, swim_periodic)
+    s_summary = _run_unless_done(case, swim_periodic, options)
     return answer(case, glide, scene_record, drag, tolerance, s_summary, g_summary)
 
 
-def _run_unless_done(case: Path, ranks, progress, criterion) -> dict:
+def _run_unless_done(case: Path, criterion, options: dict) -> dict:
     """Run the case until ``criterion`` holds, unless its written loads already meet it (a
     rerun of a finished pair only recomputes the figures)."""
     summary_path = case / SUMMARY
@@ -102,15 +111,17 @@ def _run_unless_done(case: Path, ranks, progress, criterion) -> dict:
     if reached:
         print(f"{case}: {reached} (already reached: not run again)")
         return json.loads(summary_path.read_text())
-    return run_case(case, ranks=ranks, progress=progress, stop_when=criterion)
+    return run_case(case, stop_when=criterion, **options)
 
 
 def yplus_over_run(case: Path) -> dict:
     """Area-weighted y+ on the whale at every written time that has it: the worst fraction of
     the area with y+ <= 300 (Spalding's wall function holds there) and the last time's
-    statistics (adapter/foam/yplus.py)."""
+    statistics (adapter/foam/yplus.py). The y+ reader reads the case folder's time folders:
+    times a parallel run left in the processor folders are reconstructed first."""
     from adapter.foam.yplus import yplus_stats
 
+    reconstruct_new_times(case)
     per_time = [(t, yplus_stats(case, p.name)) for t, p in time_dirs(case)
                 if t > 0 and (p / "yPlus").is_file()]
     if not per_time:
@@ -135,8 +146,8 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
     data = ld.read_loads(case)
     st = ld.cycle_stats(data["Time"], data["total:Fx"], data["total:P"], period, ramp)
     if not len(st.starts):
-        raise AdapterError(f"{case}: no complete stroke cycle after the start-up; raise "
-                           "case.cycles")
+        raise CaseError(f"{case}: no complete stroke cycle after the start-up; raise "
+                        "case.cycles")
     dfx, dp = ld.periodic_change(st, drag)
     window = (st.starts[-1], st.starts[-1] + period)
     t = data["Time"]

@@ -23,7 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from adapter.errors import AdapterError
+from adapter.errors import AdapterError, CaseError, FoamFileError
+from adapter.foam.folders import time_dirs
 
 #: the y+ limits reported as fractions of the area below them
 YPLUS_LIMITS = (1.0, 5.0, 30.0, 300.0)
@@ -36,14 +37,14 @@ YPLUS_LIMITS = (1.0, 5.0, 30.0, 300.0)
 def read_foam_text(path) -> str:
     """The text of an OpenFOAM file, ``path`` or ``path.gz``, without comments.
 
-    Raises :class:`~adapter.errors.AdapterError` when neither exists or the file is binary."""
+    Raises :class:`~adapter.errors.FoamFileError` when neither exists or the file is binary."""
     p = Path(path)
     if p.is_file():
         data = p.read_bytes()
     elif p.with_name(p.name + ".gz").is_file():
         data = p.with_name(p.name + ".gz").read_bytes()
     else:
-        raise AdapterError(f"{p} is missing (nor {p.name}.gz)")
+        raise FoamFileError(f"{p} is missing (nor {p.name}.gz)")
     if data[:2] == b"\x1f\x8b":
         data = gzip.decompress(data)
     text = data.decode("latin-1")
@@ -51,8 +52,8 @@ def read_foam_text(path) -> str:
     text = re.sub(r"//[^\n]*", " ", text)
     m = re.search(r"\bformat\s+(\w+)\s*;", text)
     if m and m.group(1) != "ascii":
-        raise AdapterError(f"{p}: format {m.group(1)}; only ascii files are read "
-                           "(set writeFormat ascii)")
+        raise FoamFileError(f"{p}: format {m.group(1)}; only ascii files are read "
+                            "(set writeFormat ascii)")
     return text
 
 
@@ -66,7 +67,7 @@ def _list_start(text: str, pos: int = 0) -> tuple:
     """(count, index just after the opening parenthesis) of the first ``N (`` list at pos."""
     m = re.compile(r"(\d+)\s*\(").search(text, pos)
     if not m:
-        raise AdapterError("no OpenFOAM list found")
+        raise FoamFileError("no OpenFOAM list found")
     return int(m.group(1)), m.end()
 
 
@@ -81,7 +82,7 @@ def read_points(path) -> np.ndarray:
     end = _matching(text, start - 1)
     pts = _numbers(text[start:end])
     if pts.size != 3 * n:
-        raise AdapterError(f"{path}: expected {n} points, read {pts.size / 3:g}")
+        raise FoamFileError(f"{path}: expected {n} points, read {pts.size / 3:g}")
     return pts.reshape(n, 3)
 
 
@@ -92,7 +93,7 @@ def _matching(text: str, open_pos: int, pair: str = "()") -> int:
         depth += 1 if m.group() == pair[0] else -1
         if depth == 0:
             return open_pos + m.start()
-    raise AdapterError(f"unbalanced {pair}")
+    raise FoamFileError(f"unbalanced {pair}")
 
 
 def read_faces(path) -> list:
@@ -113,7 +114,7 @@ def read_faces(path) -> list:
     faces = [np.array(f.split(), dtype=np.int64)
              for f in re.findall(r"\d+\s*\(([^()]*)\)", text[start:end])]
     if len(faces) != n:
-        raise AdapterError(f"{path}: expected {n} faces, read {len(faces)}")
+        raise FoamFileError(f"{path}: expected {n} faces, read {len(faces)}")
     return faces
 
 
@@ -137,15 +138,15 @@ def read_patch_field(path, patch: str, n_faces: int | None = None) -> np.ndarray
     text = _body(read_foam_text(path))
     b = re.search(r"\bboundaryField\s*\{", text)
     if not b:
-        raise AdapterError(f"{path}: no boundaryField")
+        raise FoamFileError(f"{path}: no boundaryField")
     m = re.compile(r"(?<![\w\"])" + re.escape(patch) + r"\s*\{").search(text, b.end())
     if not m:
-        raise AdapterError(f"{path}: no patch {patch} in boundaryField")
+        raise FoamFileError(f"{path}: no patch {patch} in boundaryField")
     end = _matching(text, m.end() - 1, "{}")
     entry = text[m.end():end]
     v = re.search(r"\bvalue\s+(uniform|nonuniform)\s+", entry)
     if not v:
-        raise AdapterError(f"{path}: patch {patch} has no value")
+        raise FoamFileError(f"{path}: patch {patch} has no value")
     rest = entry[v.end():]
     if v.group(1) == "uniform":
         val = _numbers(rest[:rest.index(";")])
@@ -158,24 +159,12 @@ def read_patch_field(path, patch: str, n_faces: int | None = None) -> np.ndarray
     n, start = _list_start(rest)
     vals = _numbers(rest[start:_matching(rest, start - 1)])
     if vals.size % max(n, 1):
-        raise AdapterError(f"{path}: patch {patch}: {vals.size} numbers for {n} values")
+        raise FoamFileError(f"{path}: patch {patch}: {vals.size} numbers for {n} values")
     return vals if vals.size == n else vals.reshape(n, -1)
 
 
 # --------------------------------------------------------------------------------------------
 # the mesh of a time
-
-
-def time_dirs(case: Path) -> list:
-    """``[(time, folder), ...]`` of a case's time folders, earliest first."""
-    out = []
-    for p in case.iterdir():
-        if p.is_dir():
-            try:
-                out.append((float(p.name), p))
-            except ValueError:
-                pass
-    return sorted(out)
 
 
 def mesh_file(case, time: str | None, name: str) -> Path:
@@ -212,7 +201,7 @@ def patch_face_areas(case, patch: str = "whale", time: str | None = None) -> np.
     """Face areas (m2) of one patch in the mesh of ``time`` (None: constant/polyMesh)."""
     boundary = read_boundary(mesh_file(case, time, "boundary"))
     if patch not in boundary:
-        raise AdapterError(f"{case}: no patch {patch} (patches: {', '.join(boundary)})")
+        raise CaseError(f"{case}: no patch {patch} (patches: {', '.join(boundary)})")
     start, n = boundary[patch]["startFace"], boundary[patch]["nFaces"]
     faces = read_faces(mesh_file(case, time, "faces"))[start:start + n]
     points = read_points(mesh_file(case, time, "points"))
@@ -239,7 +228,7 @@ def area_stats(values, areas) -> dict:
     v = np.asarray(values, dtype=float)
     a = np.asarray(areas, dtype=float)
     if v.shape != a.shape or v.size == 0:
-        raise AdapterError(f"{v.size} values for {a.size} faces")
+        raise FoamFileError(f"{v.size} values for {a.size} faces")
     total = float(a.sum())
     p5, med, p95 = weighted_quantile(v, a, [0.05, 0.5, 0.95])
     out = {
@@ -264,8 +253,8 @@ def latest_time(case, field: str = "yPlus") -> str:
     for _, d in reversed(time_dirs(Path(case))):
         if (d / field).is_file() or (d / f"{field}.gz").is_file():
             return d.name
-    raise AdapterError(f"{case}: no time folder holds {field} (add the yPlus function object "
-                       "to system/controlDict and run)")
+    raise CaseError(f"{case}: no time folder holds {field} (add the yPlus function object "
+                    "to system/controlDict and run)")
 
 
 def yplus_stats(case, time: str | None = None, patch: str = "whale") -> dict:
@@ -282,8 +271,8 @@ def yplus_stats(case, time: str | None = None, patch: str = "whale") -> dict:
     areas = patch_face_areas(case, patch, time)
     yp = read_patch_field(tdir / "yPlus", patch, len(areas))
     if yp.shape != areas.shape:
-        raise AdapterError(f"{tdir / 'yPlus'}: {yp.size} values on {patch}, mesh has "
-                           f"{areas.size} faces")
+        raise FoamFileError(f"{tdir / 'yPlus'}: {yp.size} values on {patch}, mesh has "
+                            f"{areas.size} faces")
     out = area_stats(yp, areas)
     out["time"] = tdir.name
     log = case / "log.snappyHexMesh"
@@ -305,7 +294,7 @@ def _time_dir(case: Path, time: str) -> Path:
     for value, p in time_dirs(case):
         if abs(value - float(time)) <= 1e-9 * max(1.0, abs(value)):
             return p
-    raise AdapterError(f"{case}: no time folder {time}")
+    raise CaseError(f"{case}: no time folder {time}")
 
 
 # --------------------------------------------------------------------------------------------
@@ -354,7 +343,7 @@ def layer_coverage(case, patch: str = "whale") -> dict:
             src = d
             break
     if src is None:
-        raise AdapterError(f"{case}: no nSurfaceLayers field (snappyHexMesh writeFlags)")
+        raise CaseError(f"{case}: no nSurfaceLayers field (snappyHexMesh writeFlags)")
     areas = patch_face_areas(case, patch, None)
     n = read_patch_field(src / "nSurfaceLayers", patch, len(areas))
     total = areas.sum()

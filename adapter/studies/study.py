@@ -42,14 +42,9 @@ from pathlib import Path
 import numpy as np
 
 from adapter.errors import AdapterError, UsageError
-from adapter.foam.case import (
-    CASE_RECORD,
-    case_parameters,
-    mesh_case,
-    prepare_case,
-    read_record,
-    write_json,
-)
+from adapter.foam.case import CASE_RECORD, prepare_case, read_record, write_json
+from adapter.foam.mesh import mesh_case
+from adapter.foam.parameters import case_parameters
 from adapter.studies.study_analysis import analyse, case_done, finite
 from adapter.studies.study_report import format_study, plot_accuracy_vs_cost
 
@@ -222,7 +217,7 @@ def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS
 
     ``runner(case, record, tolerance, ranks, progress) -> summary`` runs one pair (default
     :func:`adapter.foam.swimrun.run_swim_and_glide`); ``mesher(case)`` meshes a prepared case
-    (default :func:`adapter.foam.case.mesh_case`). Returns study.json's content."""
+    (default :func:`adapter.foam.mesh.mesh_case`). Returns study.json's content."""
     if runner is None:
         from adapter.foam.swimrun import run_swim_and_glide
 

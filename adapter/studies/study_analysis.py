@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from adapter.errors import AdapterError
-from adapter.foam.case import SUMMARY, read_record
+from adapter.foam.case import read_record
+from adapter.foam.summary import SUMMARY
 from adapter.studies import gci as G
 
 #: the figures of the mesh study: (key in study.json, key of swimming_cost, label)

@@ -1,0 +1,222 @@
+"""Writing a case's dictionaries with PyFoam's ``ParsedParameterFile`` (never string templates):
+the mesh (blockMeshDict, snappyHexMeshDict), the run (controlDict, decomposeParDict), the mesh
+motion (dynamicMeshDict), the fluid (transportProperties, turbulenceProperties) and the initial
+fields of ``0.orig``, from the scene and the case's
+:class:`~adapter.foam.parameters.CaseParameters`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+from pathlib import Path
+
+from adapter import resources
+from adapter.errors import CaseError
+from adapter.foam.parameters import CaseParameters
+
+#: the boundary condition library built by scripts/build_plugin.sh (resources.build_dir())
+PLUGIN_LIB = resources.PLUGIN_LIB
+#: the decompositions ``case.decomposition`` names (else it names a decomposeParDict file)
+DECOMPOSITIONS = ("hierarchical", "case")
+#: the step-server boundary condition's timeouts written into 0.orig/pointDisplacement (s)
+CONNECT_TIMEOUT_S = 10
+REPLY_TIMEOUT_S = 120
+
+
+def plugin_lib() -> Path:
+    """The plugin library a case loads: ``$WHALE_PLUGIN_LIB``, else :data:`PLUGIN_LIB`."""
+    return Path(os.environ.get("WHALE_PLUGIN_LIB", PLUGIN_LIB))
+
+
+def parsed_dict(path: Path):
+    """An OpenFOAM dictionary as PyFoam's ParsedParameterFile (``writeFile()`` writes it back)."""
+    from PyFoam.RunDictionary.ParsedParameterFile import ParsedParameterFile
+
+    # comments are dropped: PyFoam re-attaches them to the wrong entries when it writes
+    return ParsedParameterFile(str(path), preserveComments=False)
+
+
+def _vector(v) -> str:
+    return "(" + " ".join(repr(float(x)) for x in v) + ")"
+
+
+def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool,
+                       decomposition: str = "hierarchical") -> None:
+    """Set every dictionary of the copied template ``case`` from ``scene`` and ``p``.
+
+    ``static_whale``: the whale patch is fixed (``fixedValue``) instead of asking the
+    step-server, and without a built plugin library the loads function object and the blended
+    mesh motion are left out. ``decomposition``: as :func:`set_decomposition`'s ``method``.
+    """
+    c = scene.case
+    d = parsed_dict(case / "system" / "blockMeshDict")
+    for axis, lo, hi, n in zip("xyz", p.domain_min, p.domain_max, p.cells, strict=True):
+        d[f"{axis}min"] = lo
+        d[f"{axis}max"] = hi
+        d[f"n{axis}"] = n
+    d.writeFile()
+
+    d = parsed_dict(case / "system" / "snappyHexMeshDict")
+    d["geometry"]["nearWhale"]["min"] = _vector(p.near_box_min)
+    d["geometry"]["nearWhale"]["max"] = _vector(p.near_box_max)
+    cm = d["castellatedMeshControls"]
+    cm["refinementSurfaces"]["whale"]["level"] = f"({c.refinement[0]} {c.refinement[1]})"
+    near = max(0, c.refinement[0] - 1)
+    cm["refinementRegions"]["nearWhale"]["levels"] = f"(({near} {near}))"
+    cm["locationInMesh"] = _vector(p.location_in_mesh)
+    d["addLayers"] = c.layers > 0
+    lc = d["addLayersControls"]
+    lc["layers"] = {"whale": {"nSurfaceLayers": c.layers}} if c.layers > 0 else {}
+    lc["relativeSizes"] = False
+    lc["firstLayerThickness"] = c.first_layer_m
+    lc["expansionRatio"] = c.layer_expansion
+    # the smallest layer thickness kept: a third of the first layer's
+    lc["minThickness"] = c.first_layer_m / 3
+    d.writeFile()
+
+    d = parsed_dict(case / "system" / "controlDict")
+    lib = f'"{plugin_lib()}"'
+    if static_whale and not plugin_lib().is_file():
+        # a flow-only case without the plugin library: no loads function object either
+        del d["libs"]
+        del d["functions"]["loads"]
+    else:
+        d["libs"] = [lib]
+        d["functions"]["loads"]["libs"] = [lib]
+        d["functions"]["loads"]["rhoInf"] = scene.flow.rho_kg_m3
+    d["endTime"] = p.end_time
+    d["deltaT"] = p.delta_t
+    d["timePrecision"] = p.time_precision
+    d["writeInterval"] = p.steps_per_write
+    d["functions"]["forces"]["rhoInf"] = scene.flow.rho_kg_m3
+    d.writeFile()
+
+    d = parsed_dict(case / "constant" / "dynamicMeshDict")
+    if c.mesh_motion == "blended" and (plugin_lib().is_file() or not static_whale):
+        d["motionSolver"] = "whaleBlendedDisplacement"
+        d["motionSolverLibs"] = [lib]
+        coeffs = d["whaleBlendedDisplacementCoeffs"]
+        coeffs["innerDistance"] = p.motion_inner_m
+        coeffs["outerDistance"] = p.motion_outer_m
+    else:
+        # the Laplacian (also for a flow-only case without the plugin library)
+        d["motionSolver"] = "displacementLaplacian"
+        d["motionSolverLibs"] = ['"libfvMotionSolvers.so"']
+    d.writeFile()
+
+    set_decomposition(case, p.ranks, decomposition)
+
+    d = parsed_dict(case / "constant" / "transportProperties")
+    d["nu"] = scene.flow.nu_m2_s
+    d.writeFile()
+
+    d = parsed_dict(case / "constant" / "turbulenceProperties")
+    d["simulationType"] = "laminar" if c.turbulence == "laminar" else "RAS"
+    d["RAS"]["RASModel"] = "kOmegaSST"
+    d.writeFile()
+
+    zero = case / "0.orig"
+    d = parsed_dict(zero / "U")
+    d["Uinlet"] = _vector((scene.flow.speed_m_s, 0.0, 0.0))
+    if p.inflow_ramp_s > 0:
+        # still water, the inflow ramped in smoothly: no impulsive start
+        d["internalField"] = "uniform (0 0 0)"
+        d["boundaryField"]["inlet"] = {
+            "type": "uniformFixedValue",
+            "uniformValue": "table " + inflow_ramp_table(scene.flow.speed_m_s, p.inflow_ramp_s),
+            "value": "uniform (0 0 0)",
+        }
+    d.writeFile()
+    d = parsed_dict(zero / "k")
+    d["kInlet"] = p.k_inlet
+    d.writeFile()
+    d = parsed_dict(zero / "omega")
+    d["omegaInlet"] = p.omega_inlet
+    d.writeFile()
+    d = parsed_dict(zero / "pointDisplacement")
+    if static_whale:
+        d["boundaryField"]["whale"] = {"type": "fixedValue", "value": "uniform (0 0 0)"}
+    else:
+        d["boundaryField"]["whale"] = {
+            "type": "stepServerDisplacement",
+            # no socket/port: the master rank reads <case>/.whale-adapter.endpoint, where the
+            # server says it listens (UNIX socket or TCP); no token (the environment's)
+            "connectTimeout": CONNECT_TIMEOUT_S,
+            "replyTimeout": REPLY_TIMEOUT_S,
+            "rhoInf": scene.flow.rho_kg_m3,
+            "value": "uniform (0 0 0)",
+        }
+    d.writeFile()
+
+
+def set_decomposition(case: Path, ranks: int, method: str = "hierarchical") -> None:
+    """system/decomposeParDict for ``ranks`` subdomains.
+
+    ``method`` (``case.decomposition`` as recorded, :data:`DECOMPOSITIONS`): "hierarchical"
+    writes ``hierarchical (ranks 1 1)``; "case" keeps the case's own method and coefficients
+    (``simple (1 2 1)``, ``scotch`` where OpenFOAM has it, ...) and sets only
+    numberOfSubdomains.
+    Raises :class:`~adapter.errors.CaseError` when the case's own ``simple`` or
+    ``hierarchical`` split ``n`` does not make ``ranks`` subdomains.
+    """
+    path = Path(case) / "system" / "decomposeParDict"
+    d = parsed_dict(path)
+    d["numberOfSubdomains"] = ranks
+    if method == "hierarchical":
+        d["method"] = "hierarchical"
+        d["coeffs"] = {"n": f"({ranks} 1 1)", "order": "xyz"}
+    else:
+        _check_split(d, ranks, path)
+    d.writeFile()
+
+
+def _check_split(d, ranks: int, path: Path) -> None:
+    """A ``simple`` or ``hierarchical`` split ``n`` must make ``ranks`` subdomains."""
+    method = str(d["method"]) if "method" in d else ""
+    if method not in ("simple", "hierarchical"):
+        return
+    for key in (f"{method}Coeffs", "coeffs"):
+        if key in d and "n" in d[key]:
+            try:
+                split = [int(v) for v in d[key]["n"]]
+            except (TypeError, ValueError):
+                return          # decomposePar says what is wrong with it
+            break
+    else:
+        return
+    if math.prod(split) != ranks:
+        raise CaseError(f"{path}: {method} n ({' '.join(map(str, split))}) makes "
+                        f"{math.prod(split)} subdomains, not the {ranks} ranks asked for; "
+                        "edit its n or run with as many ranks (--np)")
+
+
+def choose_decomposition(case: Path, value: str, base_dir: str | Path = ".") -> str:
+    """The decomposition to record for ``case.decomposition = value``: a name of
+    :data:`DECOMPOSITIONS` as it is; else a decomposeParDict file (relative to ``base_dir``,
+    the scene file's folder), copied to ``<case>/system/decomposeParDict``: "case"."""
+    if value in DECOMPOSITIONS:
+        return value
+    src = Path(value).expanduser()
+    src = src if src.is_absolute() else Path(base_dir) / src
+    if not src.is_file():
+        raise CaseError(f"case.decomposition = {value!r}: neither one of "
+                        f"{', '.join(DECOMPOSITIONS)} nor a decomposeParDict file ({src} is "
+                        "missing)")
+    shutil.copyfile(src, Path(case) / "system" / "decomposeParDict")
+    return "case"
+
+
+def inflow_ramp_table(speed: float, duration: float, points: int = 24) -> str:
+    """An OpenFOAM table ``((t (u 0 0)) ...)``: the inflow from 0 to ``speed`` over
+    ``duration`` as the quintic smoothstep (zero acceleration at both ends), sampled at
+    ``points`` + 1 times (linear between them); constant after."""
+    rows = []
+    for k in range(points + 1):
+        x = k / points
+        u = speed * x**3 * (10 - 15 * x + 6 * x * x)
+        rows.append(f"({duration * x!r} ({u!r} 0 0))")
+    return "(" + " ".join(rows) + ")"
+
+

@@ -1,0 +1,191 @@
+"""Reading OpenFOAM's logs: checkMesh's facts, the first fatal error, and :class:`LogWatch`,
+which follows a growing pimpleFoam log (times, Courant number, the mesh-motion checks, the
+plugin's timing); :class:`Progress` shows it as one line.
+
+Mesh watch: pimpleFoam runs with ``-debug-switch polyMesh=1``, which makes OpenFOAM v1912's
+``polyMesh::movePoints`` check every new mesh (``checkMeshMotion``) and print the smallest cell
+volume and the largest face non-orthogonality of every step, in the same words as checkMesh
+(:data:`NON_ORTHOGONALITY_RE` reads both). See docs/case.md.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import sys
+import time
+from pathlib import Path
+
+#: the largest face non-orthogonality (deg), as checkMesh and the mesh-motion check print it
+NON_ORTHOGONALITY_RE = re.compile(r"Mesh non-orthogonality Max: ([-+0-9.eE]+)")
+_TIME_RE = re.compile(r"^Time = ([-+0-9.eE]+)\s*$")
+_EXEC_RE = re.compile(r"^ExecutionTime = ([-+0-9.eE]+) s")
+_MINVOL_RE = re.compile(r"Min volume = ([-+0-9.eE]+?)\.\s")
+_COURANT_RE = re.compile(r"^Courant Number mean: \S+ max: ([-+0-9.eE]+)")
+_PLUGIN_RE = re.compile(r"stepServer: ([0-9]+) requests, mean ([0-9.]+) us per exchange\s*$")
+_BROKEN_RE = re.compile(r"\*\*\*(Zero or negative cell volume|Error in face pyramids"
+                        r"|Number of non-orthogonality errors)")
+
+
+def parse_check_mesh(text: str) -> dict:
+    """Cells, whale patch size and quality from a checkMesh log."""
+    info: dict = {}
+    m = re.search(r"^\s*cells:\s+(\d+)", text, re.M)
+    if m:
+        info["cells"] = int(m.group(1))
+    m = re.search(r"^\s*whale\s+(\d+)\s+(\d+)\s", text, re.M)
+    if m:
+        info["whale_faces"], info["whale_points"] = int(m.group(1)), int(m.group(2))
+    m = NON_ORTHOGONALITY_RE.search(text)
+    if m:
+        info["max_non_orthogonality"] = float(m.group(1))
+    m = re.search(r"Max skewness = ([-+0-9.eE]+)", text)
+    if m:
+        info["max_skewness"] = float(m.group(1))
+    info["mesh_ok"] = "Mesh OK." in text
+    return info
+
+
+
+def fatal_error(log_text: str) -> str | None:
+    """The message lines of the first ``--> FOAM FATAL (IO) ERROR`` block of a log, or None.
+
+    OpenFOAM prints the header, the message, then ``From function ...`` / ``in file ...`` and
+    ``FOAM exiting``; rank prefixes (``[1] ``) of a parallel run are dropped."""
+    lines = [re.sub(r"^\[\d+\] ?", "", line) for line in log_text.splitlines()]
+    for i, line in enumerate(lines):
+        m = re.search(r"--> FOAM FATAL (?:IO )?ERROR:?(.*)$", line)
+        if not m:
+            continue
+        out = [m.group(1).strip()] if m.group(1).strip() else []
+        for rest in lines[i + 1:]:
+            text = rest.strip()
+            if text.startswith(("From function", "From ", "in file", "FOAM exiting",
+                                "FOAM parallel run exiting", "--> FOAM")):
+                break
+            if text:
+                out.append(text)
+        return "\n".join(out) if out else None
+    return None
+
+
+class LogWatch:
+    """Follows a pimpleFoam log as it grows and keeps what the run reports.
+
+    Attributes: times (every ``Time =``), seen (wall clock when each appeared), exec_times
+    (``ExecutionTime``, s), max_non_orth (deg) and min_volume (m^3) over every mesh motion
+    check, max_courant, plugin (requests, mean us), broken (the first line reporting an invalid
+    mesh, or None).
+    """
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self._pos = 0
+        self._rest = ""
+        self.times: list = []
+        self.seen: list = []
+        self.exec_times: list = []
+        self.max_non_orth = float("nan")
+        self.last_non_orth = float("nan")
+        self.min_volume = float("nan")
+        self.max_courant = float("nan")
+        self.plugin: tuple | None = None
+        self.broken: str | None = None
+
+    def poll(self) -> None:
+        """Read what was appended since the last call."""
+        try:
+            with open(self.path, errors="replace") as fh:
+                fh.seek(self._pos)
+                chunk = fh.read()
+                self._pos = fh.tell()
+        except FileNotFoundError:
+            return
+        lines = (self._rest + chunk).split("\n")
+        self._rest = lines.pop()
+        for line in lines:
+            self.feed(line)
+
+    def feed(self, line: str) -> None:
+        """Take one log line."""
+        line = re.sub(r"^\[\d+\] ", "", line)
+        if m := _TIME_RE.match(line):
+            self.times.append(float(m.group(1)))
+            self.seen.append(time.perf_counter())
+        elif m := _EXEC_RE.match(line):
+            self.exec_times.append(float(m.group(1)))
+        elif m := NON_ORTHOGONALITY_RE.search(line):
+            v = float(m.group(1))
+            self.last_non_orth = v
+            self.max_non_orth = _nanmax(self.max_non_orth, v)
+        elif m := _MINVOL_RE.search(line):
+            self.min_volume = _nanmin(self.min_volume, float(m.group(1)))
+        elif m := _COURANT_RE.match(line):
+            self.max_courant = _nanmax(self.max_courant, float(m.group(1)))
+        elif m := _PLUGIN_RE.search(line):
+            self.plugin = (int(m.group(1)), float(m.group(2)))
+        if self.broken is None and _BROKEN_RE.search(line):
+            self.broken = line.strip()
+
+    def seconds_per_step(self) -> float:
+        """Mean wall seconds per step, leaving out the first (start-up) step.
+
+        Measured from when each ``Time =`` line appeared in the log (polled every 0.1 s), so it
+        includes the time the solver waits for the step-server."""
+        s = self.seen
+        if len(s) >= 3:
+            return (s[-1] - s[0]) / (len(s) - 1)
+        return float("nan")
+
+    def cpu_seconds_per_step(self) -> float:
+        """Mean CPU seconds per step of the (master) solver process, from ExecutionTime."""
+        e = self.exec_times
+        if len(e) >= 3:
+            return (e[-1] - e[0]) / (len(e) - 1)
+        if e:
+            return e[-1] / len(e)
+        return float("nan")
+
+
+def _nanmax(a: float, b: float) -> float:
+    return b if math.isnan(a) else max(a, b)
+
+
+def _nanmin(a: float, b: float) -> float:
+    return b if math.isnan(a) else min(a, b)
+
+
+class Progress:
+    """One progress line: simulated time / end time, s per step, ETA, mesh quality."""
+
+    def __init__(self, end_time: float, start_time: float, stream=sys.stderr):
+        self.end = end_time
+        self.start = start_time
+        self.stream = stream
+        self.tty = stream.isatty()
+        self.t_wall = time.perf_counter()
+        self.last_print = 0.0
+        self.last_line = ""
+
+    def show(self, watch: LogWatch, final: bool = False) -> None:
+        if not watch.times:
+            return
+        now = time.perf_counter()
+        if not final and not self.tty and now - self.last_print < 10:
+            return
+        t = watch.times[-1]
+        steps = len(watch.times)
+        per_step = (now - self.t_wall) / steps
+        remaining = (self.end - t) / max(t - self.start, 1e-12) * (now - self.t_wall)
+        line = (f"pimpleFoam  t = {t:.4g} / {self.end:.4g} s  step {steps}  "
+                f"{per_step:.2f} s/step  ETA {remaining:.0f} s  "
+                f"non-orth {watch.last_non_orth:.1f} deg (max {watch.max_non_orth:.1f})")
+        if line == self.last_line and not final:
+            return
+        self.last_line = line
+        self.last_print = now
+        if self.tty:
+            print("\r" + line, end="\n" if final else "", file=self.stream, flush=True)
+        else:
+            print(line, file=self.stream, flush=True)
+

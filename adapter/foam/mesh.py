@@ -1,0 +1,117 @@
+"""Meshing a prepared case: blockMesh, snappyHexMesh and checkMesh, and what the mesh is
+recorded as (cells, the whale patch, quality, the prism layers) in ``adapter-case.json``."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import time
+from pathlib import Path
+
+from adapter.errors import AdapterError, SolverRunError
+from adapter.foam.case import CASE_RECORD, parallel_settings, read_record, write_json
+from adapter.foam.dictionaries import set_decomposition
+from adapter.foam.folders import processor_dirs, restore_zero
+from adapter.foam.logs import parse_check_mesh
+from adapter.foam.parallel import parallel_command
+from adapter.foam.tools import check_foam, run_utility
+from adapter.foam.yplus import layer_coverage, parse_layer_report
+
+
+def mesh_case(case_dir, *, ranks: int | None = None, parallel: bool | None = None,
+              launcher: str | None = None) -> dict:
+    """blockMesh, snappyHexMesh -overwrite and checkMesh in a prepared case.
+
+    ``parallel`` (None: ``case.parallel_meshing`` as recorded) with ``ranks`` > 1 (None: the
+    recorded rank count) runs snappyHexMesh on the ranks (:func:`snappy_on_ranks`, started by
+    ``launcher``, None: the recorded one) and reconstructs the mesh into ``constant/polyMesh``.
+
+    Returns the mesh's facts parsed from checkMesh: cells, whale_faces, whale_points,
+    max_non_orthogonality, max_skewness, mesh_ok, meshed_on_ranks; also recorded in
+    adapter-case.json. Raises :class:`~adapter.errors.SolverRunError` when a utility fails or
+    the whale patch is missing.
+    """
+    check_foam()
+    case = Path(case_dir)
+    # a folder not made by run-case is refused before blockMesh touches it
+    record = read_record(case)
+    settings = parallel_settings(record, parallel_meshing=parallel, launcher=launcher)
+    ranks = int(ranks or record["parameters"]["ranks"])
+    on_ranks = ranks if settings["parallel_meshing"] and ranks > 1 else 1
+    t0 = time.perf_counter()
+    run_utility(case, ["blockMesh"])
+    if on_ranks > 1:
+        snappy_on_ranks(case, on_ranks, settings["launcher"], settings["decomposition"])
+    else:
+        run_utility(case, ["snappyHexMesh", "-overwrite"])
+    log = run_utility(case, ["checkMesh"])
+    info = parse_check_mesh(log.read_text(errors="replace"))
+    info["mesh_s"] = round(time.perf_counter() - t0, 2)
+    info["meshed_on_ranks"] = on_ranks
+    info.update(layer_record(case))
+    if not info.get("whale_faces"):
+        raise SolverRunError(f"snappyHexMesh made no whale patch; see {case / 'log.snappyHexMesh'}"
+                             f" ({no_patch_hint(read_record(case))})")
+    restore_zero(case)
+    record_path = case / CASE_RECORD
+    if record_path.is_file():
+        record = json.loads(record_path.read_text())
+        record["mesh"] = info
+        write_json(record_path, record)
+    return info
+
+
+def snappy_on_ranks(case: Path, ranks: int, launcher: str = "",
+                    decomposition: str = "hierarchical") -> None:
+    """snappyHexMesh on ``ranks`` ranks: decomposePar of the blockMesh mesh (the case's
+    decomposition), ``snappyHexMesh -overwrite -parallel``, reconstructParMesh into
+    ``constant/polyMesh`` (and reconstructPar of the layer fields snappyHexMesh wrote into
+    ``processor*/0``); the processor folders are removed (a run decomposes the final mesh)."""
+    set_decomposition(case, ranks, decomposition)
+    for p in processor_dirs(case):
+        shutil.rmtree(p)
+    run_utility(case, ["decomposePar", "-force"], log_name="decomposePar.mesh")
+    run_utility(case, parallel_command(["snappyHexMesh", "-overwrite"], ranks, launcher),
+                log_name="snappyHexMesh")
+    run_utility(case, ["reconstructParMesh", "-constant"])
+    if any((p / "0").is_dir() for p in processor_dirs(case)):
+        run_utility(case, ["reconstructPar", "-withZero", "-time", "0"],
+                    log_name="reconstructPar.mesh")
+    for p in processor_dirs(case):
+        shutil.rmtree(p)
+
+
+def layer_record(case_dir) -> dict:
+    """The whale's prism layers after snappyHexMesh: ``{"layers": {...}}`` with the log's table
+    (``faces``, ``faces_with_layers``, ``face_coverage``, ``mean_layers``, ``thickness_m``,
+    ``thickness_pct``) and the area-weighted coverage from the ``nSurfaceLayers`` field
+    (``area_with_layers``, ``area_full_thickness``); empty when the case has no layers."""
+    case = Path(case_dir)
+    log = case / "log.snappyHexMesh"
+    report = parse_layer_report(log.read_text(errors="replace")).get("whale") \
+        if log.is_file() else None
+    if not report:
+        return {}
+    try:
+        cov = layer_coverage(case, "whale")
+    except AdapterError:
+        cov = {}
+    for key in ("area_with_layers", "area_full_thickness"):
+        if key in cov:
+            report[key] = round(cov[key], 4)
+    for key in ("face_coverage",):
+        if key in report:
+            report[key] = round(report[key], 4)
+    return {"layers": report}
+
+
+def no_patch_hint(record: dict) -> str:
+    """Why snappyHexMesh may have kept no whale: cells too coarse for the body, most often."""
+    smallest = record.get("parameters", {}).get("smallest_cell_m")
+    size = record.get("body_size_m")
+    if smallest and size and smallest > 0.25 * min(size[1], size[2]):
+        return (f"the smallest cell, {smallest:.3g} m, is too coarse for a body "
+                f"{min(size[1], size[2]):.3g} m across: lower case.background_cell (body "
+                "lengths) or case.background_cell_m, or raise case.refinement")
+    return "is locationInMesh in the water?"
+

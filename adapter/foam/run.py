@@ -1,0 +1,222 @@
+"""Running a prepared case: pimpleFoam, serial or on N MPI ranks, with the step-server
+(:mod:`adapter.foam.stepserver`) in the background; its log followed (:mod:`adapter.foam.logs`)
+with a progress line and the mesh watch, and the summary written (:mod:`adapter.foam.summary`).
+
+Mesh watch: when the non-orthogonality of the moved mesh passes ``case.max_non_orthogonality``
+the solver gets SIGUSR1, which ``-opt-switch stopAtWriteNowSignal=10`` turns into "write this
+step and stop", so the run ends on a written, still valid mesh. See docs/case.md.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+from adapter import resources
+from adapter.coupling.server import TOKEN_ENV
+from adapter.errors import SolverRunError
+from adapter.foam.case import parallel_settings, read_record, write_json
+from adapter.foam.dictionaries import parsed_dict, plugin_lib, set_decomposition
+from adapter.foam.folders import (
+    processor_dirs,
+    processor_latest,
+    restore_zero,
+    resume_time,
+    serial_latest,
+    trim_processor_times,
+)
+from adapter.foam.logs import LogWatch, Progress, fatal_error
+from adapter.foam.mesh import mesh_case
+from adapter.foam.parallel import parallel_command
+from adapter.foam.stepserver import start_server, stop_server
+from adapter.foam.summary import SUMMARY, summarise
+from adapter.foam.tools import check_foam, foam_env, run_utility
+
+#: run_case's stop_when is asked after this many new solver steps
+STOP_WHEN_STEPS = 10
+#: the signal pimpleFoam turns into "write now and stop" (-opt-switch stopAtWriteNowSignal)
+STOP_SIGNAL = signal.SIGUSR1
+
+
+def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
+             stop_when=None, host: str | None = None, port: int | None = None,
+             token: str | None = None, launcher: str | None = None,
+             reconstruct: bool | None = None) -> dict:
+    """Run pimpleFoam on a prepared case with the step-server, and summarise the run.
+
+    Meshes the case first when it has no mesh. Serial for one rank, otherwise decomposePar
+    (the case's decomposition, :func:`~adapter.foam.dictionaries.set_decomposition`) and
+    ``<launcher> pimpleFoam -parallel`` (:mod:`adapter.foam.parallel`; ``launcher`` None: the
+    recorded ``case.launcher``, "" there: mpirun); reconstructPar only when ``reconstruct``
+    (None: the recorded ``case.reconstruct``), else the written times stay in the processor
+    folders (a rerun on as many ranks continues from them). A case that has written times
+    continues from the latest (controlDict ``startFrom latestTime``).
+
+    ``stop_when(case) -> str | None`` is asked every :data:`STOP_WHEN_STEPS` solver steps and
+    once at the end; a reason ends the run (written) as the mesh watch does, and is recorded
+    as ``stopped_because`` (not an error).
+
+    ``host``/``port``: the server listens on TCP there (port 0: any free one) and publishes
+    it in ``<case>/.whale-adapter.endpoint``; else on the case's UNIX socket. ``token`` (None:
+    ``$WHALE_ADAPTER_TOKEN``) reaches the server and the solver through the environment only.
+
+    Returns the summary also written to ``<case>/adapter-summary.json``. Raises
+    :class:`~adapter.errors.SolverRunError` naming the log when pimpleFoam fails, or when the
+    mesh watch stopped the run (after writing the summary).
+    """
+    check_foam()
+    t_start = time.perf_counter()
+    case = Path(case_dir).resolve()
+    record = read_record(case)
+    ranks = int(ranks or record["parameters"]["ranks"])
+    settings = parallel_settings(record, launcher=launcher, reconstruct=reconstruct)
+    if not (case / "constant" / "polyMesh" / "owner").exists():
+        mesh_case(case, ranks=ranks, launcher=settings["launcher"])
+        record = read_record(case)
+    restore_zero(case)
+    if ranks > 1:
+        set_decomposition(case, ranks, settings["decomposition"])
+    static = bool(record.get("static_whale"))
+    if not static and not plugin_lib().is_file():
+        raise SolverRunError(f"the boundary condition library {plugin_lib()} is missing; build "
+                             f"it with `bash {resources.BUILD_SCRIPT}` (or point "
+                             "WHALE_PLUGIN_LIB at a built one)")
+    ranks_latest = processor_latest(case)
+    from_ranks = ranks_latest is not None and ranks_latest > serial_latest(case)
+    if from_ranks and (ranks == 1 or len(processor_dirs(case)) != ranks):
+        # the latest times are in processor folders of another rank count: reconstruct them
+        trim_processor_times(case, ranks_latest)
+        run_utility(case, ["reconstructPar", "-newTimes"])
+        from_ranks = False
+    start_time = resume_time(case)
+    control = parsed_dict(case / "system" / "controlDict")
+    end_time = float(control["endTime"])
+    if start_time >= end_time - 0.5 * float(control["deltaT"]):
+        return _finished(case, record, ranks, from_ranks and settings["reconstruct"], t_start)
+    token = token or os.environ.get(TOKEN_ENV) or None
+    env = foam_env()
+    env.pop(TOKEN_ENV, None)
+    if token:
+        env[TOKEN_ENV] = token
+    solver = ["pimpleFoam", "-debug-switch", "polyMesh=1",
+              "-opt-switch", f"stopAtWriteNowSignal={int(STOP_SIGNAL)}"]
+    server = None
+    stopped = None
+    watch = LogWatch(case / "log.pimpleFoam")
+    try:
+        if ranks > 1 and from_ranks:
+            # resume from the ranks' own latest time (a crash left it only there)
+            trim_processor_times(case, ranks_latest)
+        elif ranks > 1:
+            for p in case.glob("processor*"):
+                shutil.rmtree(p)
+            run_utility(case, ["decomposePar", "-force", "-latestTime"])
+        if ranks > 1:
+            # the token reaches the ranks on other hosts through the environment (Open MPI's
+            # -x), never a file
+            cmd = parallel_command(solver, ranks, settings["launcher"], token=bool(token))
+        else:
+            cmd = solver
+        if not static:
+            server = start_server(case, record, host=host, port=port, token=token)
+        t_flow = time.perf_counter()
+        rc, stopped = _run_watched(case, cmd, watch, record, start_time, end_time, progress,
+                                   stop_when, env=env)
+        flow_wall = time.perf_counter() - t_flow
+    finally:
+        stop_server(server)
+    if rc != 0:
+        what = stopped or f"pimpleFoam failed (exit code {rc})"
+        hint = f" ({watch.broken})" if watch.broken and not stopped else ""
+        fatal = None if stopped else fatal_error(
+            (case / "log.pimpleFoam").read_text(errors="replace"))
+        if fatal:
+            raise SolverRunError(f"{what}{hint}, with OpenFOAM's message:\n    "
+                                 + fatal.replace("\n", "\n    ")
+                                 + f"\n(see {case / 'log.pimpleFoam'}; run the same command again"
+                                 " to continue from the latest written time)")
+        raise SolverRunError(f"{what}{hint}; see {case / 'log.pimpleFoam'}")
+    if ranks > 1 and settings["reconstruct"]:
+        run_utility(case, ["reconstructPar", "-newTimes"])
+    (case / "case.foam").touch()
+    summary = summarise(case, watch, record, ranks, flow_wall, time.perf_counter() - t_start)
+    if stopped and not stopped.startswith("mesh watch"):
+        summary["stopped_because"] = stopped
+        stopped = None
+    if stopped:
+        summary["stopped"] = stopped
+    write_json(case / SUMMARY, summary)
+    if stopped:
+        raise SolverRunError(f"{stopped}; the run stopped at t = {summary['end_time_s']:.4g} s "
+                             f"with a written mesh; see {case / SUMMARY}")
+    return summary
+
+
+def _finished(case: Path, record: dict, ranks: int, reconstruct: bool, t_start: float) -> dict:
+    """A case already at its end time: nothing to run; its summary (reconstructed first when
+    asked and the last times are only in processor folders)."""
+    if reconstruct:
+        run_utility(case, ["reconstructPar", "-newTimes"])
+    (case / "case.foam").touch()
+    if (case / SUMMARY).is_file():
+        return json.loads((case / SUMMARY).read_text())
+    watch = LogWatch(case / "log.pimpleFoam")
+    watch.poll()
+    summary = summarise(case, watch, record, ranks, 0.0, time.perf_counter() - t_start)
+    write_json(case / SUMMARY, summary)
+    return summary
+
+
+def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_when=None,
+                 env=None):
+    """Run the solver, follow its log; stop it (write now) when the mesh gets too distorted,
+    or when ``stop_when(case)`` gives a reason."""
+    limit = float(record.get("max_non_orthogonality", 80.0))
+    show = Progress(end_time, start_time) if progress else None
+    stopped = None
+    asked_at = 0      # steps seen when stop_when was last asked
+    with open(case / "log.pimpleFoam", "w") as log:
+        try:
+            proc = subprocess.Popen(cmd, cwd=case, stdout=log, stderr=subprocess.STDOUT,
+                                    env=env or foam_env(), start_new_session=True)
+        except FileNotFoundError:
+            raise SolverRunError(f"{cmd[0]} is not on PATH (install it, or give the launcher "
+                                 "with its full path)") from None
+        try:
+            while True:
+                rc = proc.poll()
+                watch.poll()
+                if stopped is None and (watch.max_non_orth > limit or watch.broken):
+                    what = (f"mesh non-orthogonality reached {watch.max_non_orth:.1f} deg "
+                            f"(limit case.max_non_orthogonality = {limit:g})")
+                    if watch.broken:
+                        what = f"the moved mesh is invalid ({watch.broken})"
+                    stopped = f"mesh watch: {what}"
+                    proc.send_signal(STOP_SIGNAL)
+                # asked every STOP_WHEN_STEPS new steps (not on a wall clock: a fast run
+                # would reach its end between two questions) and once more at the end
+                steps = len(watch.times)
+                if stopped is None and stop_when and (
+                        steps - asked_at >= STOP_WHEN_STEPS or rc is not None and steps > asked_at):
+                    asked_at = steps
+                    stopped = stop_when(case)
+                    if stopped and rc is None:
+                        proc.send_signal(STOP_SIGNAL)
+                if show:
+                    show.show(watch)
+                if rc is not None:
+                    break
+                time.sleep(0.1)
+        except BaseException:
+            os.killpg(proc.pid, signal.SIGTERM)
+            proc.wait()
+            raise
+    watch.poll()
+    if show:
+        show.show(watch, final=True)
+    return rc, stopped
