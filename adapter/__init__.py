@@ -27,10 +27,14 @@ def __getattr__(name):
         from adapter.motion.animator import Animator
 
         return Animator
-    if name in ("build_surface", "WhaleSurface"):
-        from adapter.body import geometry
+    if name == "build_surface":
+        from adapter.body.geometry import build_surface
 
-        return getattr(geometry, name)
+        return build_surface
+    if name == "WhaleSurface":
+        from adapter.body.surface import WhaleSurface
+
+        return WhaleSurface
     raise AttributeError(f"module 'adapter' has no attribute {name!r}")
 
 

@@ -48,3 +48,25 @@ class ParaViewError(AdapterError, RuntimeError):
 
 class VTKFileError(AdapterError, ValueError):
     """A VTK file (.vtp, .pvd) cannot be read: cut short or not what its name says."""
+
+
+class UsageError(AdapterError, ValueError):
+    """A command-line option is missing or out of range; the message names the option."""
+
+
+class IntegratorError(AdapterError, ValueError):
+    """An integrator asked for wrongly: an unknown method name, a step that is not positive,
+    backward Euler without its spring network."""
+
+
+class AnimatorTimeError(AdapterError, ValueError):
+    """The animator cannot give this time: negative or not finite."""
+
+
+class TimeBehindError(AnimatorTimeError):
+    """A time behind the animator, which only marches forward: restore a checkpoint or
+    reset() first."""
+
+
+class CheckpointError(AdapterError, ValueError):
+    """A checkpoint of another scene (its step or node count differ) handed to restore()."""

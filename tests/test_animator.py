@@ -4,6 +4,7 @@ depending on time alone."""
 import numpy as np
 import pytest
 
+from adapter.errors import AnimatorTimeError, CheckpointError, TimeBehindError
 from adapter.motion.animator import Animator
 from adapter.motion.gait import load_fluke_table, rotation_y
 
@@ -28,8 +29,15 @@ def test_between_steps_is_linear_and_backwards_is_refused(smoke_animator):
     np.testing.assert_allclose(a.displacement(t0 + 0.25 * a.dt), x0 + 0.25 * (x1 - x0),
                                rtol=1e-12, atol=1e-12)
     a.displacement(t0 + 10 * a.dt)
-    with pytest.raises(ValueError, match="only marches forward"):
+    with pytest.raises(ValueError, match="only marches forward") as info:
         a.displacement(t0)
+    assert isinstance(info.value, TimeBehindError)      # named, and still a ValueError
+    with pytest.raises(AnimatorTimeError, match="finite and >= 0"):
+        a.displacement(float("nan"))
+    # a checkpoint of another whale (another step) is refused by name
+    foreign = dict(a.checkpoint(), dt=np.float64(2 * a.dt))
+    with pytest.raises(CheckpointError, match="another scene"):
+        a.restore(foreign)
 
 
 def test_checkpoint_restore_is_exact(smoke_animator):

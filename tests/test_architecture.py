@@ -205,7 +205,8 @@ def private_crossings(sources: dict[str, str]) -> list[str]:
 
 
 #: the rooms split into modules of one idea so far (issue 14); the size limits hold in them
-SIZED_ROOMS = ("adapter.foam", "adapter.coupling", "adapter.vtkfiles")
+SIZED_ROOMS = ("adapter.foam", "adapter.coupling", "adapter.vtkfiles", "adapter.body",
+               "adapter.motion", "adapter.studies")
 MAX_MODULE_LINES = 400
 MAX_CLASS_LINES = 250
 

@@ -429,7 +429,7 @@ def _scaled_scene(tmp_path, surface, length_m):
     the farthest x: a mesh file's length), as an STL."""
     pts = surface.points - surface.points[surface.landmarks["rostrum"]]
     pts = pts * (DOLPHIN_M / pts[:, 0].max())
-    from adapter.body.geometry import write_surface
+    from adapter.body.meshfile import write_surface
 
     write_surface(tmp_path / "dolphin.stl", pts, surface.faces)
     marks = "\n".join(f"{name} = [{float(p[0])!r}, {float(p[1])!r}, {float(p[2])!r}]"

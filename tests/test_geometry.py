@@ -3,14 +3,11 @@
 import numpy as np
 import pytest
 
-from adapter.body.geometry import (
-    LANDMARKS,
-    TAIL_BASE_S,
-    build_surface,
-    procedural_whale,
-    read_surface,
-    validate_surface,
-)
+from adapter.body.checks import validate_surface
+from adapter.body.geometry import build_surface
+from adapter.body.landmarks import LANDMARKS, TAIL_BASE_S
+from adapter.body.meshfile import read_surface
+from adapter.body.procedural import procedural_whale
 from adapter.errors import GeometryError
 from adapter.scene import load_scene
 

@@ -122,3 +122,30 @@ def test_backward_euler_needs_the_network():
     X0, net = _damped_spring()
     with pytest.raises(ValueError, match="network"):
         make_integrator("backward_euler", net.forces, 0.1)
+
+
+def test_each_methods_facts_are_its_class_attributes_and_the_docs_table_says_so():
+    """Order, stages, force calls, cost and stability limit are written once, on the method's
+    class: the stability analysis, the studies and docs/numerics.md read them from there."""
+    from pathlib import Path
+
+    from adapter.errors import IntegratorError
+    from adapter.motion import stability
+    from adapter.motion.integrators import method_table
+    from adapter.studies import chooser, numerics
+
+    for name, cls in METHODS.items():
+        assert cls.name == name and cls.order >= 1 and len(cls.stages) >= 1
+        assert numerics.THEORY_ORDER[name] == cls.order
+        assert chooser.STEP_COST[name] == cls.step_cost >= cls.force_calls
+        assert stability.OMEGA_DT_LIMIT[name] == cls.omega_dt_limit
+        assert (name in stability.EXPLICIT) == cls.explicit
+        limit = mode_stable_dt(name, np.array([1.0]), np.array([0.0]))[0]
+        if cls.explicit:
+            assert limit == pytest.approx(cls.omega_dt_limit, rel=1e-3, abs=1e-5)
+        else:
+            assert np.isinf(limit) and np.isinf(cls.omega_dt_limit)
+    docs = Path(__file__).resolve().parent.parent / "docs" / "numerics.md"
+    assert method_table() in docs.read_text()
+    with pytest.raises(IntegratorError, match="unknown integrator 'leapfrogish'"):
+        mode_stable_dt("leapfrogish", np.array([1.0]), np.array([0.0]))

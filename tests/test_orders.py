@@ -56,7 +56,8 @@ def test_compiled_driven_step_equals_the_generic_one(whale, method):
     slow = make_integrator(method, lambda x, v: a.network.forces_numpy(x, v), a.dt,
                            network=a.network)
     for dt in (a.dt, 0.3 * a.dt):  # and a split step
-        f, s = fast.step(X, V, t, drive=a, dt=dt), slow.step(X, V, t, drive=a, dt=dt)
+        f = fast.step(X, V, t, drive=a.drive, dt=dt)
+        s = slow.step(X, V, t, drive=a.drive, dt=dt)
         for x, y in zip(f, s, strict=True):
             np.testing.assert_allclose(x[a.dynamic], y[a.dynamic], rtol=1e-11, atol=1e-12)
         assert np.abs(f[1] - V).max() > 0  # the step moved
@@ -71,7 +72,7 @@ def test_the_tether_is_in_the_stable_step(whale):
     # against 0.0403 s, and measured 0.0385 s with the tether (docs/numerics.md)
     plain = stable_dt(a.network, a.rest, "symplectic_euler", free=free, exact=False)
     tethered = stable_dt(a.network, a.rest, "symplectic_euler", free=free, exact=False,
-                         tether=(a._tether_k, a._tether_c))
+                         tether=a.drive.tether)
     assert tethered < 0.97 * plain, (plain, tethered)
     # the animator's (forward Euler here) is never above the plain prediction
     assert a.stable_dt <= (1 + 1e-9) * stable_dt(a.network, a.rest, "forward_euler", free=free)

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from adapter.body import geometry as G
+from adapter.body import meshfile, regions
+from adapter.body.surface import WhaleSurface
 from adapter.foam import loads as ld
 from adapter.foam.case import REGIONS_STL, prepare_case
 from adapter.foam.swimrun import COST_ROWS
@@ -23,21 +24,22 @@ def test_smoke_whale_regions_area_fractions_and_places(smoke_surface):
     surf = smoke_surface
     reg = surf.triangle_regions()
     tri, p, L = surf.triangles, surf.points, surf.length
-    assert reg.shape == (len(tri),) and set(np.unique(reg)) == {G.BODY, G.FLIPPERS, G.FLUKES}
+    assert reg.shape == (len(tri),)
+    assert set(np.unique(reg)) == {regions.BODY, regions.FLIPPERS, regions.FLUKES}
     area = _areas(surf)
-    frac = {name: area[reg == k].sum() / area.sum() for k, name in enumerate(G.REGIONS)}
+    frac = {name: area[reg == k].sum() / area.sum() for k, name in enumerate(regions.REGIONS)}
     # measured on the smoke whale (1206 nodes): body 0.804, flippers 0.111, flukes 0.085
     assert abs(frac["flippers"] - 0.111) < 0.005, frac
     assert abs(frac["flukes"] - 0.085) < 0.005, frac
-    assert surf.region_areas() == {n: area[reg == k].sum() for k, n in enumerate(G.REGIONS)}
+    assert surf.region_areas() == {n: area[reg == k].sum() for k, n in enumerate(regions.REGIONS)}
 
     centroid = p[tri].mean(axis=1)
     s_c = centroid[:, 0] / L
     tail_base = surf.s[surf.landmarks["tail_base"]]
     # flukes: exactly the triangles behind the tail base
-    np.testing.assert_array_equal(reg == G.FLUKES, s_c > tail_base)
+    np.testing.assert_array_equal(reg == regions.FLUKES, s_c > tail_base)
     # flippers: around the flipper tips, on both sides, none on the midline or the head
-    fl = reg == G.FLIPPERS
+    fl = reg == regions.FLIPPERS
     for name, side in (("flipper_left", 1), ("flipper_right", -1)):
         tip = p[surf.landmarks[name]]
         mine = fl & (np.sign(centroid[:, 1]) == side)
@@ -55,29 +57,29 @@ def test_geometric_flipper_rule_of_mesh_files_finds_the_procedural_flippers(smok
     whose flippers are known: no body triangle taken, the flipper's root strip missed
     (measured 13 % of the flipper area on the smoke whale, 10 % on the default)."""
     surf = smoke_surface
-    truth = surf.triangle_regions() == G.FLIPPERS
-    rule = G.flipper_triangles(surf.points, surf.triangles, surf.landmarks, surf.origin,
+    truth = surf.triangle_regions() == regions.FLIPPERS
+    rule = regions.flipper_triangles(surf.points, surf.triangles, surf.landmarks, surf.origin,
                                surf.length)
     area = _areas(surf)
     assert not (rule & ~truth).any()
     assert area[rule].sum() > 0.82 * area[truth].sum()
-    as_file = G.WhaleSurface(surf.points, surf.faces, surf.landmarks, surf.length, surf.origin)
-    np.testing.assert_array_equal(as_file.triangle_regions() == G.FLIPPERS, rule)
+    as_file = WhaleSurface(surf.points, surf.faces, surf.landmarks, surf.length, surf.origin)
+    np.testing.assert_array_equal(as_file.triangle_regions() == regions.FLIPPERS, rule)
 
 
 def test_prepared_case_has_the_three_solids_and_the_regions_entry(smoke_scene, smoke_surface,
                                                                   tmp_path):
     prepare_case(smoke_scene, tmp_path / "case", surface=smoke_surface)
     tri_dir = tmp_path / "case" / "constant" / "triSurface"
-    solids = G.read_stl_solids(tri_dir / REGIONS_STL)
-    assert list(solids) == list(G.REGIONS)
+    solids = meshfile.read_stl_solids(tri_dir / REGIONS_STL)
+    assert list(solids) == list(regions.REGIONS)
     reg = smoke_surface.triangle_regions()
     p, tri = smoke_surface.points, smoke_surface.triangles
-    for k, name in enumerate(G.REGIONS):
+    for k, name in enumerate(regions.REGIONS):
         np.testing.assert_array_equal(solids[name], p[tri[reg == k]])   # same triangles, order
     # snappyHexMesh's whale.stl stays one solid: one patch whale
     assert (tri_dir / "whale.stl").read_bytes()[:5] != b"solid" or \
-        len(G.read_stl_solids(tri_dir / "whale.stl")) == 1
+        len(meshfile.read_stl_solids(tri_dir / "whale.stl")) == 1
     control = (tmp_path / "case" / "system" / "controlDict").read_text()
     assert f'regions "$FOAM_CASE/constant/triSurface/{REGIONS_STL}";' in control
 
@@ -89,7 +91,7 @@ def test_region_figures_add_up_to_the_totals(tmp_path):
     t = np.arange(1, 3 * n + 1) / n
     rng = np.random.default_rng(1)
     cols = {}
-    for k, name in enumerate(G.REGIONS):
+    for k, name in enumerate(regions.REGIONS):
         wave = 10 * np.sin(2 * np.pi * t) + rng.normal(size=len(t))
         cols[f"whale.{name}:Fx"] = (k + 1) * 100 + wave
         cols[f"whale.{name}:P"] = (k + 1) * 50 + rng.normal(size=len(t))
@@ -99,9 +101,9 @@ def test_region_figures_add_up_to_the_totals(tmp_path):
     m = len(t) - n // 2
     glide = {"Time": t[:m], **{k: v[:m] + 7 for k, v in cols.items()}}
     fig = ld.region_figures(swim, glide, period, start_up=1.0)
-    assert list(fig) == list(G.REGIONS)
-    total_fx = sum(cols[f"whale.{r}:Fx"] for r in G.REGIONS)
-    total_p = sum(cols[f"whale.{r}:P"] for r in G.REGIONS)
+    assert list(fig) == list(regions.REGIONS)
+    total_fx = sum(cols[f"whale.{r}:Fx"] for r in regions.REGIONS)
+    total_p = sum(cols[f"whale.{r}:P"] for r in regions.REGIONS)
     st = ld.cycle_stats(t, total_fx, total_p, period, 1.0)
     gst = ld.cycle_stats(t[:m], total_fx[:m] + 21, total_p[:m], period, period)
     assert abs(sum(f["fx_N"] for f in fig.values()) - st.mean_fx[-1]) < 1e-9
@@ -112,6 +114,6 @@ def test_region_figures_add_up_to_the_totals(tmp_path):
     assert fig["flippers"]["area_m2"] == 20.0
     assert ld.region_figures({"Time": t}, {}, period, 1.0) == {}
     keys = [key for _, key, _ in COST_ROWS]
-    for r in G.REGIONS:
+    for r in regions.REGIONS:
         assert f"swimming_cost/regions/{r}/power_W" in keys
         assert f"swimming_cost/regions/{r}/gliding_drag_N" in keys

@@ -16,6 +16,8 @@ from adapter.foam import parameters as P
 from adapter.foam import summary as SM
 from adapter.studies import gci as G
 from adapter.studies import study as S
+from adapter.studies import study_analysis as A
+from adapter.studies import study_report as R
 
 from .conftest import NEEDS_FOAM_AND_PLUGIN
 
@@ -195,14 +197,14 @@ def test_study_machinery_with_a_model_runner_stops_resumes_and_answers(tmp_path,
     assert sp["speed_uncertainty_m_s"] == pytest.approx(1.25 * 0.5 * h2**2 / (600 * us),
                                                         rel=1e-6)
     assert (out / S.CHART).stat().st_size > 10_000
-    table = S.format_study(study)
+    table = R.format_study(study)
     assert "mean power (W)" in table and "self-propelled speed" in table
     # the chooser: the coarsest mesh within the tolerance
     d = {k: max(g["difference"][str(k)] for g in figs.values()) for k in (1, 2, 3)}
     assert d[1] < d[2] < d[3]
-    assert S.choose_flow_mesh(saved, d[2] * 1.01)["mesh"] == 2
-    assert S.choose_flow_mesh(saved, d[3] * 1.01)["mesh"] == 3
-    none = S.choose_flow_mesh(saved, d[1] / 2)
+    assert A.choose_flow_mesh(saved, d[2] * 1.01)["mesh"] == 2
+    assert A.choose_flow_mesh(saved, d[3] * 1.01)["mesh"] == 3
+    none = A.choose_flow_mesh(saved, d[1] / 2)
     assert none["mesh"] is None and none["background_cell_m_needed"] < saved["cases"][
         "mesh-1/case"]["background_cell_m"]
     from adapter.cli import main

@@ -103,7 +103,7 @@ def test_efficiency_and_cost_of_transport_worked_example():
 
 def test_body_dimensions_of_a_box():
     """A 4 x 2 x 1 m box: area 28 m2, volume 8 m3, height 1 m."""
-    from adapter.body.geometry import WhaleSurface
+    from adapter.body.surface import WhaleSurface
 
     p = np.array([[x, y, z] for x in (0, 4) for y in (-1, 1) for z in (-0.5, 0.5)], float)
     quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4],

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from adapter import vtkfiles
-from adapter.body.geometry import LANDMARKS
+from adapter.body.landmarks import LANDMARKS
 from adapter.coupling.store import atomic_write_text, time_name
 from adapter.errors import VTKFileError
 
@@ -40,7 +40,7 @@ class Recorder:
     Parameters
     ----------
     folder : the output folder (it exists).
-    surface : the whale's :class:`~adapter.body.geometry.WhaleSurface` at rest.
+    surface : the whale's :class:`~adapter.body.surface.WhaleSurface` at rest.
     """
 
     def __init__(self, folder, surface):

@@ -52,7 +52,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         step-server boundary condition, and the plugin library is not loaded (a flow-only case,
         no server needed).
     scene_file : the scene's TOML file, recorded so that the step-server loads the same scene.
-    surface : a :class:`~adapter.body.geometry.WhaleSurface`; None builds the scene's.
+    surface : a :class:`~adapter.body.surface.WhaleSurface`; None builds the scene's.
 
     Returns the :class:`CaseParameters` written; they are also recorded in
     ``<case>/adapter-case.json``.

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from adapter.body.springs import momentum_rate
+from adapter.errors import UsageError
 from adapter.motion.animator import Animator
 
 KEYPOINTS = ("rostrum", "flipper", "tail_base", "fluke_tip")
@@ -234,7 +235,7 @@ def _midline_nodes(surf, width: float = 0.02) -> np.ndarray:
 
 def surf_write(surf, path: Path, X: np.ndarray, d: np.ndarray, v: np.ndarray) -> None:
     """One frame: the deformed surface with displacement and velocity as point data."""
-    from adapter.body.geometry import write_surface
+    from adapter.body.meshfile import write_surface
 
     write_surface(path, X, surf.faces, point_data={"displacement": d, "velocity": v})
 
@@ -276,7 +277,7 @@ def _cmd_dry_run(args: argparse.Namespace) -> int:
 
     scene = load_scene(args.scene, preset=args.preset)
     if args.cycles is not None and args.cycles < 1:
-        raise SystemExit("whale-adapter dry-run: --cycles must be at least 1")
+        raise UsageError("--cycles must be at least 1")
     summary = run(scene, Path(args.out), cycles=args.cycles, progress=not args.no_progress)
     ptp, ph = summary["peak_to_peak_m"], summary["phase_deg"]
     print(f"dry-run {summary['scene']}: {summary['nodes']} nodes, {summary['edges']} edges, "

@@ -316,7 +316,7 @@ def drive_place(X, V, drive, coef):
     is a kinematic constraint, so the springs attached to it must see it where it is at that
     time, inside the step and not only after it.
 
-    ``drive`` is :meth:`~adapter.animator.Animator.stage_arrays` (rest, moving, profile,
+    ``drive`` is :attr:`~adapter.motion.drive.StrokeDrive.stage_arrays` (rest, moving, profile,
     damping, (k, c), hinge nodes, fluke nodes, arms, hinge0, bend), ``coef`` the row
     (G'(t), G(t), D(t), theta(t), theta'(t)) at the stage's time t."""
     rest, _, _, _, _, hinge, fluke, arm0, hinge0, bend = drive

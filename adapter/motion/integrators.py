@@ -4,15 +4,13 @@ The base class :class:`Integrator` owns the step size, the step count and the st
 every new state, and refuses to step once it has failed; each method implements only
 ``_step``. :data:`METHODS` maps the names a scene file uses to the classes.
 
-=================  =====  ======================================================  ============
-name               order  one step                                                force calls
-=================  =====  ======================================================  ============
-forward_euler      1      X' = X + dt V,  V' = V + dt F(X, V)  (the paper's)      1
-symplectic_euler   1      V' = V + dt F(X, V),  X' = X + dt V'                    1
-verlet             2      velocity Verlet, damping by a velocity predictor         2
-rk4                4      classical Runge-Kutta on (X, V)                          4
-backward_euler     1      one linearised implicit step (Baraff & Witkin 1998)      1 + solve
-=================  =====  ======================================================  ============
+The facts of each method are written once, as class attributes: ``name``, ``order``,
+``stages`` (the times of its right-hand-side evaluations within a step), ``force_calls`` per
+step, ``step_cost`` (the work of a step in force evaluations), ``explicit``,
+``omega_dt_limit`` (its stability limit on an undamped oscillator) and ``step_rule`` (one
+step in a line). The stability analysis, the studies and the docs read them from there;
+:func:`method_table` writes them as the table in docs/numerics.md (a test keeps the two the
+same).
 
 Velocity Verlet with a velocity-dependent force: with a0 = F(X, V),
 ``Vh = V + dt/2 a0``, ``X' = X + dt Vh``, ``a1 = F(X', Vh + dt/2 a0)`` (the velocity at the
@@ -41,153 +39,23 @@ from __future__ import annotations
 
 from typing import Callable
 
-import numba
 import numpy as np
 
-from adapter.body.springs import damping_matrix, edge_forces, force_jacobian
-from adapter.errors import UnstableError
+from adapter.body.springs import damping_matrix, force_jacobian
+from adapter.errors import IntegratorError, UnstableError
 from adapter.motion.gait import drive_force, drive_place
+from adapter.motion.kernels import (
+    NO_COEF,
+    NO_DRIVE,
+    deviation,
+    fe_checked,
+    fe_kernel,
+    rk4_kernel,
+    se_kernel,
+    verlet_kernel,
+)
 
 Force = Callable[[np.ndarray, np.ndarray], np.ndarray]
-
-
-# -- compiled kernels -----------------------------------------------------------------------
-
-@numba.njit(cache=True, error_model="numpy")
-def _axpy(out, X, dt, V):  # pragma: no cover - compiled
-    """out = X + dt V, element-wise over (N, 3)."""
-    for a in range(X.shape[0]):
-        for d in range(3):
-            out[a, d] = X[a, d] + dt * V[a, d]
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _rhs(X, V, s, i, j, rest, ki, kj, mu, nu, drive, coef, out):  # pragma: no cover
-    """out = the acceleration at stage ``s`` of a step: the network's force at (X, V) plus the
-    drive's term at the stage's time (row ``s`` of ``coef``). From the second stage on, the
-    drive's kinematic nodes (the fluke gate) are first placed on the stage state, in place
-    (the first stage is the state handed in, which already meets the constraint)."""
-    if s > 0:
-        drive_place(X, V, drive, coef[s])
-    edge_forces(X, V, i, j, rest, ki, kj, mu, nu, out)
-    drive_force(X, V, out, drive, coef[s])
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _fe_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, drive,
-               coef):  # pragma: no cover
-    _fe_checked(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, X, drive, coef)
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _fe_checked(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, ref, drive,
-                coef):  # pragma: no cover
-    """Forward Euler fused with the check: returns max |X1 - ref|, inf on NaN or infinity."""
-    _rhs(X, V, 0, i, j, rest, ki, kj, mu, nu, drive, coef, V1)
-    x0, v0, r = X.reshape(-1), V.reshape(-1), ref.reshape(-1)
-    x1, v1 = X1.reshape(-1), V1.reshape(-1)
-    m = 0.0
-    for a in range(x0.shape[0]):
-        x = x0[a] + dt * v0[a]
-        v = v0[a] + dt * v1[a]
-        x1[a] = x
-        v1[a] = v
-        if not (np.isfinite(x) and np.isfinite(v)):
-            m = np.inf
-        elif abs(x - r[a]) > m:
-            m = abs(x - r[a])
-    return m
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _se_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, drive,
-               coef):  # pragma: no cover
-    _rhs(X, V, 0, i, j, rest, ki, kj, mu, nu, drive, coef, V1)
-    for a in range(X.shape[0]):
-        for d in range(3):
-            v = V[a, d] + dt * V1[a, d]
-            V1[a, d] = v
-            X1[a, d] = X[a, d] + dt * v
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _verlet_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, drive,
-                   coef):  # pragma: no cover
-    a0 = np.empty_like(X)
-    vp = np.empty_like(X)
-    _rhs(X, V, 0, i, j, rest, ki, kj, mu, nu, drive, coef, a0)
-    h = 0.5 * dt
-    for a in range(X.shape[0]):
-        for d in range(3):
-            vh = V[a, d] + h * a0[a, d]
-            V1[a, d] = vh
-            X1[a, d] = X[a, d] + dt * vh
-            vp[a, d] = vh + h * a0[a, d]
-    # at t + dt; the gate is placed on X1 (its fluke rows are placed again after the step)
-    _rhs(X1, vp, 1, i, j, rest, ki, kj, mu, nu, drive, coef, a0)
-    for a in range(X.shape[0]):
-        for d in range(3):
-            V1[a, d] += h * a0[a, d]
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _rk4_kernel(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, drive,
-                coef):  # pragma: no cover
-    n = X.shape[0]
-    Xs = np.empty_like(X)
-    Vs = np.empty_like(X)
-    F = np.empty_like(X)
-    h = 0.5 * dt
-    w = dt / 6.0
-    # stage 1: k1 = (V, F(t, X, V))
-    _rhs(X, V, 0, i, j, rest, ki, kj, mu, nu, drive, coef, F)
-    for a in range(n):
-        for d in range(3):
-            X1[a, d] = X[a, d] + w * V[a, d]
-            V1[a, d] = V[a, d] + w * F[a, d]
-            Xs[a, d] = X[a, d] + h * V[a, d]
-            Vs[a, d] = V[a, d] + h * F[a, d]
-    # stages 2 and 3: k = (Vs, F(t + dt/2, Xs, Vs)) at the midpoint
-    for stage in range(2):
-        _rhs(Xs, Vs, 1 + stage, i, j, rest, ki, kj, mu, nu, drive, coef, F)
-        step = h if stage == 0 else dt
-        for a in range(n):
-            for d in range(3):
-                vs = Vs[a, d]
-                X1[a, d] += 2.0 * w * vs
-                V1[a, d] += 2.0 * w * F[a, d]
-                Xs[a, d] = X[a, d] + step * vs
-                Vs[a, d] = V[a, d] + step * F[a, d]
-    # stage 4 at the end of the step
-    _rhs(Xs, Vs, 3, i, j, rest, ki, kj, mu, nu, drive, coef, F)
-    for a in range(n):
-        for d in range(3):
-            X1[a, d] += w * Vs[a, d]
-            V1[a, d] += w * F[a, d]
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _deviation(X, V, ref):  # pragma: no cover - compiled
-    """Largest |X - ref| over all entries; inf if X or V holds NaN or infinity."""
-    m = 0.0
-    for a in range(X.shape[0]):
-        for d in range(3):
-            x = X[a, d]
-            v = V[a, d]
-            if not (np.isfinite(x) and np.isfinite(v)):
-                return np.inf
-            r = abs(x - ref[a, d])
-            if r > m:
-                m = r
-    return m
-
-
-#: the drive of a free network (no stroke force, no kinematic nodes), in the layout of
-#: :meth:`~adapter.animator.Animator.stage_arrays`
-_NO_DRIVE = (np.zeros((0, 3)), np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0),
-             np.zeros(2), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64),
-             np.zeros((0, 3)), np.zeros(3), np.zeros(0))
-_NO_COEF = np.zeros((4, 5))
 
 
 # -- the family -----------------------------------------------------------------------------
@@ -209,20 +77,31 @@ class Integrator:
         arrays (a returned state is overwritten three steps later).
     """
 
+    #: the name a scene file uses (integrator.method), the key of :data:`METHODS`
     name = "base"
+    #: the order of accuracy
     order = 0
-    #: force evaluations per step (the work of one step, for the charts)
-    force_calls = 1
-    #: a compiled step fused with the check (returns the largest deviation), where there is one
-    _checked_kernel = None
     #: the times of the right-hand side's evaluations within a step, in steps from its start
     stages = (0.0,)
+    #: force evaluations per step (the work of one step, for the charts)
+    force_calls = 1
+    #: the relative cost of one step, in force evaluations (the chooser's measure)
+    step_cost = 1
+    #: explicit: a finite stable step (predicted by adapter.motion.stability)
+    explicit = True
+    #: the stability limit of omega dt on an undamped oscillator (forward Euler: 0, no step
+    #: is stable without damping; backward Euler: inf, any step)
+    omega_dt_limit = 0.0
+    #: one step, in a line (the docs' table)
+    step_rule = ""
+    #: a compiled step fused with the check (returns the largest deviation), where there is one
+    _checked_kernel = None
 
     def __init__(self, force: Force, dt: float, runaway: float | None = None,
                  reference: np.ndarray | None = None, stable_dt: float | None = None,
                  network=None, reuse_buffers: bool = False):
         if not dt > 0:
-            raise ValueError(f"dt must be positive, got {dt}")
+            raise IntegratorError(f"{self.name}: dt must be positive, got {dt}")
         self.force = force
         self.dt = float(dt)
         self.runaway = runaway
@@ -238,7 +117,7 @@ class Integrator:
         self._turn = 0
         self._kernel_args = None
         #: the drive of the step under way (its arrays and coefficients; None: none)
-        self._drive, self._coef = None, _NO_COEF
+        self._drive, self._coef = None, NO_COEF
         if network is not None and _same_force(force, network):
             net = network
             self._kernel_args = (net.i, net.j, net.rest, net.k_on_i, net.k_on_j,
@@ -252,7 +131,7 @@ class Integrator:
 
         ``drive``: a time-dependent part of the right-hand side (the animator's stroke and
         fluke gate), evaluated at every stage's own time: an object with ``stage_arrays`` (the
-        tuple of :meth:`~adapter.animator.Animator.stage_arrays`) and
+        tuple of :attr:`~adapter.motion.drive.StrokeDrive.stage_arrays`) and
         ``stage_coefficients(t, dt, stages)`` (one row per stage). The state (X, V) handed in
         must already meet the drive's constraint at t (the gate placed); the fluke rows of the
         state returned are the method's, to be placed again at t + dt by the caller.
@@ -264,8 +143,8 @@ class Integrator:
             raise UnstableError(f"{self.name}: the integrator has failed before; start anew")
         h = self.dt if dt is None else float(dt)
         if drive is None:
-            self._drive, self._coef = None, _NO_COEF
-            drv = _NO_DRIVE
+            self._drive, self._coef = None, NO_COEF
+            drv = NO_DRIVE
         else:
             drv = self._drive = drive.stage_arrays
             self._coef = drive.stage_coefficients(t, h, self.stages)
@@ -301,7 +180,7 @@ class Integrator:
         """Fail if the state holds NaN or infinity, or has run away from the reference."""
         ref = self.reference if self.reference is not None else X
         if X.dtype == np.float64 and X.ndim == 2 and X.shape[1] == 3 and V.shape == X.shape:
-            dev = _deviation(X, V, ref)
+            dev = deviation(X, V, ref)
         else:
             dev = (np.abs(X - ref).max() if np.isfinite(X).all() and np.isfinite(V).all()
                    else np.inf)
@@ -362,8 +241,9 @@ class ForwardEuler(Integrator):
 
     name = "forward_euler"
     order = 1
-    _kernel = _fe_kernel
-    _checked_kernel = staticmethod(_fe_checked)
+    step_rule = "X' = X + dt V,  V' = V + dt F(X, V)  (the paper's)"
+    _kernel = fe_kernel
+    _checked_kernel = staticmethod(fe_checked)
 
     def _step(self, X, V, dt):
         F = self._f(X, V, 0)
@@ -375,7 +255,9 @@ class SymplecticEuler(Integrator):
 
     name = "symplectic_euler"
     order = 1
-    _kernel = _se_kernel
+    omega_dt_limit = 2.0
+    step_rule = "V' = V + dt F(X, V),  X' = X + dt V'"
+    _kernel = se_kernel
 
     def _step(self, X, V, dt):
         V1 = V + dt * self._f(X, V, 0)
@@ -387,9 +269,11 @@ class Verlet(Integrator):
 
     name = "verlet"
     order = 2
-    force_calls = 2
-    _kernel = _verlet_kernel
     stages = (0.0, 1.0)
+    force_calls = step_cost = 2
+    omega_dt_limit = 2.0
+    step_rule = "velocity Verlet, damping by a velocity predictor"
+    _kernel = verlet_kernel
 
     def _step(self, X, V, dt):
         a0 = self._f(X, V, 0)
@@ -404,9 +288,11 @@ class RK4(Integrator):
 
     name = "rk4"
     order = 4
-    force_calls = 4
-    _kernel = _rk4_kernel
     stages = (0.0, 0.5, 0.5, 1.0)
+    force_calls = step_cost = 4
+    omega_dt_limit = 2.828
+    step_rule = "classical Runge-Kutta on (X, V)"
+    _kernel = rk4_kernel
 
     def _step(self, X, V, dt):
         f = self._f
@@ -432,11 +318,16 @@ class BackwardEuler(Integrator):
     order = 1
     #: the drive is taken at the end of the step, as the method takes the force
     stages = (1.0,)
+    #: one force call, its Jacobian and a sparse LU: about ten force evaluations
+    step_cost = 10
+    explicit = False
+    omega_dt_limit = np.inf
+    step_rule = "one linearised implicit step (Baraff & Witkin 1998)"
 
     def __init__(self, force: Force, dt: float, **kwargs):
         super().__init__(force, dt, **kwargs)
         if self.network is None:
-            raise ValueError("backward_euler needs the spring network for its Jacobian: "
+            raise IntegratorError("backward_euler needs the spring network for its Jacobian: "
                              "make_integrator(..., network=net)")
         self._c = damping_matrix(self.network)  # C = -dF/dV, constant
         self._eye = None
@@ -483,7 +374,23 @@ def make_integrator(name: str, force: Force, dt: float, **kwargs) -> Integrator:
     try:
         cls = METHODS[name]
     except KeyError:
-        raise ValueError(
+        raise IntegratorError(
             f"unknown integrator {name!r}; known: {', '.join(sorted(METHODS))}"
         ) from None
     return cls(force, dt, **kwargs)
+
+
+def method_table() -> str:
+    """The facts of every method of :data:`METHODS` as a Markdown table (docs/numerics.md)."""
+    def limit(cls):
+        if not cls.explicit:
+            return "any (A-stable)"
+        return "needs damping" if cls.omega_dt_limit == 0 else f"{cls.omega_dt_limit:g}"
+
+    rows = ["| name | order | one step | stages | force calls | step cost | omega dt limit |",
+            "|---|---|---|---|---|---|---|"]
+    for cls in METHODS.values():
+        stages = ", ".join(f"{c:g}" for c in cls.stages)
+        rows.append(f"| {cls.name} | {cls.order} | {cls.step_rule} | {stages} | "
+                    f"{cls.force_calls} | {cls.step_cost} | {limit(cls)} |")
+    return "\n".join(rows) + "\n"

@@ -30,13 +30,14 @@ import numpy as np
 import scipy.sparse as sp
 
 from adapter.body.springs import SpringNetwork, damping_matrix, stiffness_matrix
+from adapter.errors import IntegratorError
 from adapter.motion.integrators import METHODS
 
-#: stability limit of omega * dt for an undamped oscillator, per method (for the docs)
-OMEGA_DT_LIMIT = {"symplectic_euler": 2.0, "verlet": 2.0, "rk4": 2.828,
-                  "backward_euler": np.inf}
-#: the explicit methods, whose stable step is finite
-EXPLICIT = ("forward_euler", "symplectic_euler", "verlet", "rk4")
+#: stability limit of omega * dt for an undamped oscillator, per method (the methods' own
+#: ``omega_dt_limit``; forward Euler's 0: no step is stable without damping)
+OMEGA_DT_LIMIT = {name: cls.omega_dt_limit for name, cls in METHODS.items()}
+#: the explicit methods, whose stable step is finite (the methods' own ``explicit``)
+EXPLICIT = tuple(name for name, cls in METHODS.items() if cls.explicit)
 #: systems up to this size (2 x free degrees of freedom) get every eigenvalue (dense)
 DENSE_LIMIT = 1200
 #: eigenvalues of largest modulus computed for larger systems
@@ -95,6 +96,13 @@ def mode_parameters(lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return w2, c
 
 
+def _method(name: str):
+    """The integrator class called ``name``; :class:`IntegratorError` for an unknown one."""
+    if name not in METHODS:
+        raise IntegratorError(f"unknown integrator {name!r}; known: {', '.join(METHODS)}")
+    return METHODS[name]
+
+
 def _oscillator_step(method: str, w2, c, h):
     """The 2x2 amplification matrix of one step of ``method`` on x'' = -w2 x - c x'."""
     def force(x, v):
@@ -121,10 +129,8 @@ def mode_stable_dt(method: str, w2: np.ndarray, c: np.ndarray) -> np.ndarray:
     the spectral radius of its amplification matrix."""
     w2 = np.atleast_1d(np.asarray(w2, dtype=float))
     c = np.atleast_1d(np.asarray(c, dtype=float))
-    if method == "backward_euler":
+    if not _method(method).explicit:
         return np.full(w2.shape, np.inf)
-    if method not in EXPLICIT:
-        raise ValueError(f"unknown integrator {method!r}")
     lo = np.zeros_like(w2)
     hi = 4.0 / np.sqrt(w2 + 0.25 * c * c)
     for _ in range(8):  # make sure hi is unstable
@@ -154,7 +160,7 @@ def predict(net: SpringNetwork, points: np.ndarray, free=None, methods=None,
     forward Euler min(bound without it, c / k) (each mode's (c_m + c) / (omega^2 + k) is at
     least the smaller of c_m / omega^2 and c / k).
     """
-    methods = methods or tuple(EXPLICIT) + ("backward_euler",)
+    methods = methods or tuple(METHODS)
     dofs = _free_dofs(net.n_nodes, free)
     if exact is None:
         exact = 2 * len(dofs) <= 2 * DENSE_LIMIT
@@ -211,7 +217,7 @@ def stable_dt(net: SpringNetwork, points: np.ndarray, method: str, free=None,
     ``points`` (inf for backward Euler). ``free``: the nodes the springs move (all if None);
     ``exact``: see :func:`predict` (exact for small meshes, else the fast estimate);
     ``tether``: (k, c) on every free node, see :func:`predict`."""
-    if method == "backward_euler":
+    if not _method(method).explicit:
         return np.inf
     return predict(net, points, free, methods=(method,), exact=exact, tether=tether)[method]
 

@@ -1,2 +1,4 @@
-"""The studies: numerics (stable steps, orders), the chooser, calibration, the flow study and
-its grid-convergence index. May import every room below them."""
+"""The studies: numerics (stable steps, orders; its CSV and charts in numerics_report), the
+chooser, calibration, the flow study (plan and run in study, the analysis in study_analysis,
+the chart and table in study_report) and its grid-convergence index. May import every room
+below them."""

@@ -29,15 +29,16 @@ import math
 
 import numpy as np
 
+from adapter.errors import UsageError
 from adapter.motion.animator import Animator
 from adapter.motion.dryrun import KEYPOINTS, keypoint_nodes
 from adapter.motion.integrators import METHODS
 from adapter.motion.stability import stable_dt
 
 CANDIDATE_NODES = (600, 1200, 2400, 5000, 11272)
-#: relative cost of one step, in force evaluations (backward Euler: a sparse LU, ~10)
-STEP_COST = {"forward_euler": 1, "symplectic_euler": 1, "verlet": 2, "rk4": 4,
-             "backward_euler": 10}
+#: relative cost of one step, in force evaluations (the methods' own ``step_cost``; backward
+#: Euler: a sparse LU, ~10)
+STEP_COST = {name: cls.step_cost for name, cls in METHODS.items()}
 
 
 def _trace(scene, nodes, method=None, dt=None):
@@ -158,7 +159,7 @@ def _cmd_choose(args: argparse.Namespace) -> int:
     elif args.tolerance:
         tol, max_dt = args.tolerance, (1 / args.fps if args.fps else None)
     else:
-        raise SystemExit("whale-adapter choose: give --cell-size (coupled) or --tolerance")
+        raise UsageError("give --cell-size (coupled) or --tolerance")
     report = choose(scene, tol, max_dt, nodes=args.nodes, method=args.method, dt=args.dt,
                     log=print)
     print(json.dumps(report, indent=2))
@@ -170,10 +171,11 @@ def _choose_flow_mesh(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from adapter.errors import AdapterError
-    from adapter.studies.study import RESULT, choose_flow_mesh
+    from adapter.studies.study import RESULT
+    from adapter.studies.study_analysis import choose_flow_mesh
 
     if not args.tolerance or args.tolerance <= 0:
-        raise AdapterError("choose --flow-study: give --tolerance, a fraction (0.05 = 5 %)")
+        raise UsageError("choose --flow-study: give --tolerance, a fraction (0.05 = 5 %)")
     path = Path(args.flow_study) / RESULT
     if not path.is_file():
         raise AdapterError(f"{path} is missing: run `whale-adapter study --out "

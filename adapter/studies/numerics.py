@@ -15,6 +15,9 @@
 - ``summary.json``: per method predicted_dt, measured_dt, paper_criterion_dt,
   observed_order (and the figures above in short).
 
+The measurements are here; the CSV files and the charts are written by
+:mod:`adapter.studies.numerics_report`.
+
 Measuring a stable step: a tiny random perturbation (1e-7 L) is added to the free nodes at
 t = 0 and the whale is run twice, with and without it, for up to two quarter strokes; the run
 is unstable if the difference grows between the middle and the end of the run (the
@@ -25,7 +28,6 @@ dt then brackets the threshold to about 1 %.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import time
 from pathlib import Path
@@ -37,10 +39,10 @@ from adapter.errors import UnstableError
 from adapter.motion.animator import Animator
 from adapter.motion.integrators import METHODS, make_integrator
 from adapter.motion.stability import EXPLICIT, paper_criterion_dt, predict
+from adapter.studies.numerics_report import plot_stability, plot_xy, write_csv
 
-#: theory's order per method
-THEORY_ORDER = {"forward_euler": 1, "symplectic_euler": 1, "verlet": 2, "rk4": 4,
-                "backward_euler": 1}
+#: theory's order per method (the methods' own ``order``)
+THEORY_ORDER = {name: cls.order for name, cls in METHODS.items()}
 #: the small whale of the stability and order studies (nodes)
 SMALL_NODES = 500
 
@@ -287,66 +289,6 @@ def resolution_study(scene, nodes_list, reference_nodes, method="forward_euler",
     return rows
 
 
-# -- outputs --------------------------------------------------------------------------------
-
-def _write_csv(path: Path, rows: list[dict]) -> None:
-    with path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-
-
-def _plot_stability(rows, path):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    colors = dict(zip(EXPLICIT, ("C0", "C1", "C2", "C3"), strict=True))
-    for m in EXPLICIT:
-        r = [x for x in rows if x["method"] == m]
-        mu = [x["mu"] for x in r]
-        ax.plot(mu, [x["predicted_dt"] for x in r], "-", color=colors[m], label=f"{m} predicted")
-        ax.plot(mu, [x["measured_dt"] for x in r], "o", color=colors[m], label=f"{m} measured")
-    r = [x for x in rows if x["method"] == "backward_euler"]
-    ax.plot([x["mu"] for x in r], [x["measured_dt"] for x in r], "s", color="C4",
-            label="backward_euler measured (predicted: any)")
-    r = [x for x in rows if x["method"] == "forward_euler"]
-    ax.plot([x["mu"] for x in r], [x["paper_criterion_dt"] for x in r], "k--",
-            label="paper: dt |F| <= 1 (F in m/s^2)")
-    ax.plot([x["mu"] for x in r], [x["paper_criterion_dt_mm"] for x in r], "k:",
-            label="paper, the same whale in mm")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("damping mu (1/s)")
-    ax.set_ylabel("largest stable step (s)")
-    ax.set_title("Largest stable step against damping, 500-node whale")
-    ax.legend(fontsize=7, ncol=2)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
-def _plot_xy(groups, xkey, ykey, xlabel, ylabel, title, path):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for label, rows in groups.items():
-        ax.loglog([r[xkey] for r in rows], [r[ykey] for r in rows], "o-", label=label)
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.set_title(title)
-    ax.legend(fontsize=8)
-    ax.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
 def run(scene, out: Path, quick: bool = False, log=print) -> dict:
     """The whole study into ``out``; returns the summary."""
     from adapter.scene import load_scene
@@ -356,13 +298,13 @@ def run(scene, out: Path, quick: bool = False, log=print) -> dict:
     mus = (0.2, 0.5, 2.0) if quick else (0.1, 0.2, 0.5, 1.0, 2.0)
     log(f"stable step against mu on the {SMALL_NODES}-node whale")
     stab = stability_study(scene, mus, log=log)
-    _write_csv(out / "stability.csv", stab)
-    _plot_stability(stab, out / "stability.png")
+    write_csv(out / "stability.csv", stab)
+    plot_stability(stab, out / "stability.png")
 
     log(f"convergence orders on the {SMALL_NODES}-node spring network (no gate)")
     small = Animator.with_integrator(scene, nodes=SMALL_NODES)
     conv, orders = order_study(small, log=log)
-    _write_csv(out / "convergence.csv", conv)
+    write_csv(out / "convergence.csv", conv)
 
     wp_scene = load_scene(preset="smoke") if quick else scene
     log(f"work-precision on the {wp_scene.name} whale (stroke and gate included)")
@@ -375,8 +317,8 @@ def run(scene, out: Path, quick: bool = False, log=print) -> dict:
     wp, wp_orders = order_study(big, steps=wp_steps, runner=_whale_run, log=log)
     for r in wp:
         r["nodes"] = big.surface.n_nodes
-    _write_csv(out / "work_precision.csv", wp)
-    _plot_xy({f"{m}: order {wp_orders[m]:.2f} (theory {THEORY_ORDER[m]})":
+    write_csv(out / "work_precision.csv", wp)
+    plot_xy({f"{m}: order {wp_orders[m]:.2f} (theory {THEORY_ORDER[m]})":
               [r for r in wp if r["method"] == m] for m in METHODS}, "wall_s", "error_m",
              "wall time over one half-stroke (s)", "surface error (m)",
              f"Work-precision, {wp_scene.name} whale ({big.surface.n_nodes} nodes)",
@@ -385,8 +327,8 @@ def run(scene, out: Path, quick: bool = False, log=print) -> dict:
     log("error against resolution (forward Euler, the scene's step)")
     nodes_list = (600, 1200, 2400) if quick else (600, 1200, 2400, 5000)
     res = resolution_study(scene, nodes_list, 4800 if quick else 11272, log=log)
-    _write_csv(out / "resolution.csv", res)
-    _plot_xy({"forward_euler": res}, "nodes", "error_m", "nodes", "key-point error (m)",
+    write_csv(out / "resolution.csv", res)
+    plot_xy({"forward_euler": res}, "nodes", "error_m", "nodes", "key-point error (m)",
              "Error against resolution over one half-stroke", out / "resolution.png")
 
     mu0 = scene.springs.mu

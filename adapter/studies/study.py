@@ -26,25 +26,27 @@ Then Richardson extrapolation and Roache's GCI (adapter/studies/gci.py) for glid
 swimming Fx and mean power; ``<study>/study.json``, a table, and ``accuracy-vs-cost.png``.
 A stopped study run again continues: finished cases are skipped, unfinished ones resume from
 their latest written time (run_case). See docs/case.md, "The flow study".
+
+Here: the plan and the run; the analysis in :mod:`adapter.studies.study_analysis`, the chart
+and the table in :mod:`adapter.studies.study_report`.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
 import shutil
 import time
 from pathlib import Path
 
 import numpy as np
 
-from adapter.errors import AdapterError
+from adapter.errors import AdapterError, UsageError
 from adapter.foam.case import CASE_RECORD, prepare_case, read_record, write_json
 from adapter.foam.mesh import mesh_case
 from adapter.foam.parameters import case_parameters
-from adapter.foam.summary import SUMMARY
-from adapter.studies import gci as G
+from adapter.studies.study_analysis import analyse, case_done, finite
+from adapter.studies.study_report import format_study, plot_accuracy_vs_cost
 
 PLAN = "study-plan.json"
 RESULT = "study.json"
@@ -52,10 +54,6 @@ CHART = "accuracy-vs-cost.png"
 DEFAULT_RATIO = 1.3
 DEFAULT_SPEEDS = (0.85, 1.0, 1.15, 1.3, 1.45)
 PARTS = ("meshes", "dt", "speeds")
-#: the figures of the mesh study: (key in study.json, key of swimming_cost, label)
-FIGURES = (("gliding_drag", "gliding_drag_N", "gliding drag (N)"),
-           ("swimming_fx", "swimming_mean_fx_N", "mean swimming Fx (N)"),
-           ("swimming_power", "swimming_mean_power_W", "mean power (W)"))
 #: the snappyHexMesh layer fields a copied mesh takes along (0/)
 _LAYER_FIELDS = ("nSurfaceLayers", "thickness", "thicknessFraction")
 
@@ -212,17 +210,6 @@ def _meshed(case: Path) -> bool:
     return "mesh" in read_record(case) and (case / "constant" / "polyMesh" / "owner").is_file()
 
 
-def case_done(case: Path) -> bool:
-    """The pair of this folder has its answer (``swimming_cost`` in adapter-summary.json)."""
-    path = case / SUMMARY
-    if not path.is_file():
-        return False
-    try:
-        return "swimming_cost" in json.loads(path.read_text())
-    except json.JSONDecodeError:
-        return False
-
-
 def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS,
               parts=PARTS, ranks=None, scene_file=None, progress: bool = True, runner=None,
               mesher=None, surface=None, log=print, finest: str = "scene") -> dict:
@@ -280,294 +267,12 @@ def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS
     study = analyse(out, scene, cases, ratio, failed)
     study["finest"] = finest
     study["wall_s_this_run"] = round(time.perf_counter() - t0, 1)
-    write_json(out / RESULT, _finite(study))
+    write_json(out / RESULT, finite(study))
     try:
         plot_accuracy_vs_cost(study, out / CHART)
     except AdapterError as exc:
         log(f"no chart: {exc}")
     return study
-
-
-# --------------------------------------------------------------------------------------------
-# the analysis
-
-
-def case_result(case: Path) -> dict | None:
-    """The figures of one finished pair (None when it has none)."""
-    if not case_done(case):
-        return None
-    s = json.loads((case / SUMMARY).read_text())
-    rec = read_record(case)
-    cost = s["swimming_cost"]
-    par = rec["parameters"]
-    dt = float(par["delta_t"])
-    period = float(rec["period_s"])
-    step = s.get("step_s")
-    if step is None and s.get("steps"):
-        step = float(s.get("flow_wall_s") or 0.0) / s["steps"]
-    cells = rec.get("mesh", {}).get("cells") or s.get("cells")
-    size = par["cell_size"]
-    yp = s.get("yplus") or {}
-    return {
-        "case": str(case),
-        "cells": cells,
-        "background_cell_m": float(np.prod(size)) ** (1 / 3),
-        "smallest_cell_m": par["smallest_cell_m"],
-        "delta_t_s": dt,
-        "speed_m_s": float(rec["speed_m_s"]),
-        "layers": rec.get("mesh", {}).get("layers", {}).get("thickness_m"),
-        "gliding_drag": cost.get("gliding_drag_N"),
-        "swimming_fx": cost.get("swimming_mean_fx_N"),
-        "swimming_power": cost.get("swimming_mean_power_W"),
-        "froude_efficiency": cost.get("froude_efficiency"),
-        "cost_of_transport": cost.get("cost_of_transport_J_kg_m"),
-        "mass_kg": cost.get("mass_kg"),
-        "periodic_reached": (cost.get("periodic_change") or {}).get("reached"),
-        "wall_s_per_step": step,
-        "wall_s_per_cycle": step * period / dt if step else None,
-        "yplus_median": yp.get("median"),
-        "yplus_area_le_300": yp.get("worst_area_le_300"),
-    }
-
-
-def _scale(name: str, values: dict) -> float:
-    """What a figure's differences are measured against: mean Fx against the gliding drag
-    (mean Fx can be near zero; the periodic test does the same), the others against
-    themselves."""
-    ref = values["gliding_drag"] if name == "swimming_fx" else values[name]
-    return abs(ref) if ref else float("nan")
-
-
-def mesh_study(meshes: dict) -> dict:
-    """GCI of each figure from the three meshes' results ({1: result, 2: ..., 3: ...})."""
-    h = {k: meshes[k]["background_cell_m"] for k in (1, 2, 3)}
-    r21, r32 = h[2] / h[1], h[3] / h[2]
-    out = {"r21": r21, "r32": r32, "figures": {}}
-    gs = {}
-    for key, _, label in FIGURES:
-        f = [meshes[k][key] for k in (1, 2, 3)]
-        if all(v is not None for v in f):
-            gs[key] = G.gci(*f, r21, r32)
-            gs[key]["label"] = label
-    # the best value of each figure: extrapolated, or the finest mesh's when divergent
-    best = {key: g["extrapolated"] if g["extrapolated"] is not None else g["values"][0]
-            for key, g in gs.items()}
-    for key, g in gs.items():
-        scale = _scale(key, best) if "gliding_drag" in best else abs(best[key])
-        g.update(reference="extrapolated" if g["extrapolated"] is not None
-                 else "finest mesh (no extrapolation: divergent)", scale=scale,
-                 difference={str(k): abs(meshes[k][key] - best[key]) / scale
-                             for k in (1, 2, 3)})
-        if g["gci_fine_abs"] is not None:
-            g["gci_fine_of_scale"] = g["gci_fine_abs"] / scale
-            # mesh 2's band: 1.25 x its difference from the extrapolated value
-            g["band_mesh2_abs"] = G.SAFETY * abs(meshes[2][key] - best[key])
-        out["figures"][key] = g
-    return out
-
-
-def self_propelled(points: list, mass: float | None, fx_band: float | None = None,
-                   power_band_rel: float | None = None) -> dict:
-    """Mean Fx, power against speed (``points``: dicts speed_m_s, swimming_fx,
-    swimming_power): the speed where a quadratic least-squares fit of Fx(U) (linear with two
-    points) is zero, the power there from the same fit of P(U), and the cost of transport.
-    ``bracketed``: the data change sign; otherwise the root is extrapolated (at most half the
-    speed range beyond it) and flagged. ``fx_band`` (N) and ``power_band_rel`` (mesh
-    uncertainty of the middle mesh) give the uncertainty of the speed and the cost."""
-    pts = sorted((p for p in points if p.get("swimming_fx") is not None),
-                 key=lambda p: p["speed_m_s"])
-    if len(pts) < 2:
-        return {"status": "fewer than two speeds finished"}
-    u = np.array([p["speed_m_s"] for p in pts])
-    fx = np.array([p["swimming_fx"] for p in pts])
-    pw = np.array([p["swimming_power"] for p in pts])
-    deg = min(2, len(pts) - 1)
-    cf = np.polyfit(u, fx, deg)
-    cp = np.polyfit(u, pw, deg)
-    span = u[-1] - u[0]
-    roots = [float(r.real) for r in np.roots(cf) if abs(r.imag) < 1e-9
-             and u[0] - 0.5 * span <= r.real <= u[-1] + 0.5 * span]
-    out = {"fit": "quadratic least squares in U" if deg == 2 else "linear",
-           "speeds_m_s": u.tolist(), "fx_N": fx.tolist(), "power_W": pw.tolist(),
-           "fx_coefficients": cf.tolist(), "power_coefficients": cp.tolist(),
-           "bracketed": bool(np.any(np.sign(fx[:-1]) != np.sign(fx[1:])))}
-    if not roots:
-        out["status"] = "mean Fx does not reach 0 within half the speed range beyond the data"
-        return out
-    mid = 0.5 * (u[0] + u[-1])
-    us = min(roots, key=lambda r: abs(r - mid))
-    slope = float(np.polyval(np.polyder(cf), us))
-    power = float(np.polyval(cp, us))
-    out.update(status="ok" if out["bracketed"] else "extrapolated", speed_m_s=us,
-               power_W=power, dfx_du_N_s_m=slope)
-    if mass:
-        out["cost_of_transport_J_kg_m"] = power / (mass * us)
-    if fx_band is not None and slope:
-        du = abs(fx_band / slope)
-        out["speed_uncertainty_m_s"] = du
-        dp_du = float(np.polyval(np.polyder(cp), us))
-        rel_p = math.hypot(power_band_rel or 0.0, dp_du * du / power if power else 0.0)
-        out["power_uncertainty_W"] = rel_p * abs(power)
-        if mass:
-            out["cost_of_transport_uncertainty"] = out["cost_of_transport_J_kg_m"] * math.hypot(
-                rel_p, du / us)
-    return out
-
-
-def analyse(out: Path, scene, cases: list, ratio: float, failed: dict | None = None) -> dict:
-    """study.json's content from the finished cases."""
-    results = {c["name"]: case_result(out / c["name"]) for c in cases}
-    study = {"scene": scene.name, "ratio": ratio, "cases": results, "failed": failed or {},
-             "not_finished": [n for n, r in results.items() if r is None]}
-    meshes = {k: results.get(f"mesh-{k}/case") for k in (1, 2, 3)}
-    if all(meshes.values()):
-        study["meshes"] = mesh_study(meshes)
-    base, half = results.get("mesh-2/case"), results.get("mesh-2/dt-half")
-    if base and half:
-        drag = abs(base["gliding_drag"]) or float("nan")
-        study["time_step"] = {
-            "delta_t_s": [base["delta_t_s"], half["delta_t_s"]],
-            "gliding_drag_change": abs(half["gliding_drag"] - base["gliding_drag"]) / drag,
-            "swimming_fx_change_of_drag": abs(half["swimming_fx"] - base["swimming_fx"]) / drag,
-            "swimming_power_change": abs(half["swimming_power"] - base["swimming_power"])
-            / abs(base["swimming_power"]),
-        }
-    speed_pts = [r for n, r in results.items() if r and (n.startswith("mesh-2/speed-")
-                                                         or n == "mesh-2/case")]
-    if len({p["speed_m_s"] for p in speed_pts}) >= 2 and any(
-            n.startswith("mesh-2/speed-") for n in results):
-        figs = study.get("meshes", {}).get("figures", {})
-        fx_band = figs.get("swimming_fx", {}).get("band_mesh2_abs")
-        pw = figs.get("swimming_power", {})
-        p_rel = (pw["band_mesh2_abs"] / abs(base["swimming_power"])
-                 if pw.get("band_mesh2_abs") is not None and base else None)
-        mass = next((p["mass_kg"] for p in speed_pts if p.get("mass_kg")), None)
-        study["self_propelled"] = self_propelled(speed_pts, mass, fx_band, p_rel)
-    return study
-
-
-def _finite(obj):
-    if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
-
-
-# --------------------------------------------------------------------------------------------
-# what it shows
-
-
-def plot_accuracy_vs_cost(study: dict, path: Path) -> None:
-    """Each figure's difference from its extrapolated value (of its scale, %) against the wall
-    time per swimming cycle of each mesh; hollow markers: the GCI of the finest mesh."""
-    ms = study.get("meshes")
-    if not ms or not ms.get("figures"):
-        raise AdapterError("the three meshes have not all finished: nothing to chart")
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    cost = {k: (study["cases"][f"mesh-{k}/case"] or {}).get("wall_s_per_cycle") for k in
-            (1, 2, 3)}
-    fig, ax = plt.subplots(figsize=(7.5, 4.8), dpi=110)
-    for n, g in enumerate(ms["figures"].values()):
-        colour = f"C{n}"
-        pts = [(cost[k], 100 * g["difference"][str(k)]) for k in (1, 2, 3)
-               if cost[k] and g["difference"][str(k)] > 0]
-        if pts:
-            x, y = zip(*sorted(pts), strict=True)
-            ax.plot(x, y, "o-", color=colour, label=f"{g['label']}: |f - f_ext| / scale")
-            for k in (1, 2, 3) if n == 0 else ():
-                if cost[k] and g["difference"][str(k)] > 0:
-                    ax.annotate(f"mesh {k}", (cost[k], 100 * g["difference"][str(k)]),
-                                textcoords="offset points", xytext=(4, 4), fontsize=7)
-        if g.get("gci_fine_of_scale") and cost[1]:
-            ax.plot([cost[1]], [100 * g["gci_fine_of_scale"]], "o", mfc="none", ms=10,
-                    color=colour, label=f"{g['label']}: GCI of mesh 1 ({g['convergence']})")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("wall time per stroke cycle, swimming (s)")
-    ax.set_ylabel("error estimate (% of the figure; Fx: of the gliding drag)")
-    ax.set_title(f"Accuracy against cost: {study.get('scene')}, refinement ratio "
-                 f"{study.get('ratio')}", fontsize=10)
-    ax.grid(True, which="both", color="0.9")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
-
-
-def format_study(study: dict) -> str:
-    """The short table printed at the end."""
-    lines = []
-    ms = study.get("meshes")
-    rows = [(f"mesh-{k}", study["cases"].get(f"mesh-{k}/case")) for k in (1, 2, 3)]
-    if any(r for _, r in rows):
-        lines.append(f"{'mesh':<8}{'cells':>10}{'cell (m)':>10}{'drag (N)':>11}{'Fx (N)':>10}"
-                     f"{'power (W)':>11}{'s/cycle':>9}")
-        for name, r in rows:
-            if r:
-                lines.append(f"{name:<8}{r['cells'] or 0:>10,}{r['background_cell_m']:>10.3g}"
-                             f"{r['gliding_drag']:>11.1f}{r['swimming_fx']:>10.1f}"
-                             f"{r['swimming_power']:>11.1f}{r['wall_s_per_cycle'] or 0:>9.0f}")
-    if ms:
-        lines.append(f"refinement ratios r21 {ms['r21']:.3f}, r32 {ms['r32']:.3f}")
-        for g in ms["figures"].values():
-            ext = "-" if g["extrapolated"] is None else f"{g['extrapolated']:.1f}"
-            p = "-" if g["p"] is None else f"{g['p']:.2f}"
-            gf = "-" if g.get("gci_fine_of_scale") is None else f"{g['gci_fine_of_scale']:.2%}"
-            lines.append(f"  {g['label']:<22} {g['convergence']:<11} p {p:>5}  extrapolated "
-                         f"{ext:>9}  GCI(mesh 1) {gf}")
-    ts = study.get("time_step")
-    if ts:
-        lines.append(f"time step {ts['delta_t_s'][0]:.4g} -> {ts['delta_t_s'][1]:.4g} s: drag "
-                     f"{ts['gliding_drag_change']:.2%}, Fx {ts['swimming_fx_change_of_drag']:.2%}"
-                     f" of drag, power {ts['swimming_power_change']:.2%}")
-    sp = study.get("self_propelled")
-    if sp and sp.get("speed_m_s") is not None:
-        unc = (f" +- {sp['speed_uncertainty_m_s']:.2g}" if sp.get("speed_uncertainty_m_s")
-               is not None else "")
-        cot = sp.get("cost_of_transport_J_kg_m")
-        lines.append(f"self-propelled speed {sp['speed_m_s']:.3g}{unc} m/s ({sp['status']}, "
-                     f"{sp['fit']}), power {sp['power_W']:.0f} W"
-                     + (f", cost of transport {cot:.3g} J/(kg m)" if cot else ""))
-    elif sp:
-        lines.append(f"self-propelled speed: {sp.get('status')}")
-    if study.get("not_finished"):
-        lines.append("not finished: " + ", ".join(study["not_finished"]))
-    return "\n".join(lines)
-
-
-def choose_flow_mesh(study: dict, tolerance: float) -> dict:
-    """The coarsest mesh of a finished study whose figures all lie within ``tolerance`` (a
-    fraction of each figure's scale: mean Fx of the gliding drag) of the extrapolated values;
-    None when even mesh 1 does not, with the cell size the worst figure would need (from its
-    observed order)."""
-    ms = study.get("meshes")
-    if not ms or not ms.get("figures"):
-        raise AdapterError("the study has no finished mesh study (study.json 'meshes')")
-    figs = ms["figures"]
-    for k in (3, 2, 1):
-        worst = max(g["difference"][str(k)] for g in figs.values())
-        if worst <= tolerance:
-            r = study["cases"][f"mesh-{k}/case"]
-            return {"mesh": k, "worst_difference": worst, "cells": r["cells"],
-                    "background_cell_m": r["background_cell_m"],
-                    "wall_s_per_cycle": r["wall_s_per_cycle"], "tolerance": tolerance}
-    need = None
-    r1 = study["cases"]["mesh-1/case"]
-    for g in figs.values():
-        d = g["difference"]["1"]
-        if d > tolerance and g.get("p"):
-            h = r1["background_cell_m"] * (tolerance / d) ** (1 / g["p"])
-            need = h if need is None else min(need, h)
-    return {"mesh": None, "tolerance": tolerance,
-            "worst_difference": max(g["difference"]["1"] for g in figs.values()),
-            "background_cell_m_needed": need}
 
 
 # --------------------------------------------------------------------------------------------
@@ -607,13 +312,13 @@ def _cmd_study(args: argparse.Namespace) -> int:
     parts = tuple(s.strip() for s in args.parts.split(",") if s.strip())
     bad = [s for s in parts if s not in PARTS]
     if bad:
-        raise AdapterError(f"--parts: unknown {', '.join(bad)}; choose from {', '.join(PARTS)}")
+        raise UsageError(f"--parts: unknown {', '.join(bad)}; choose from {', '.join(PARTS)}")
     try:
         speeds = [float(s) for s in args.speeds.split(",") if s.strip()]
     except ValueError:
-        raise AdapterError(f"--speeds: expected numbers, got {args.speeds!r}") from None
+        raise UsageError(f"--speeds: expected numbers, got {args.speeds!r}") from None
     if "speeds" in parts and len(speeds) < 3:
-        raise AdapterError("--speeds: give at least three speeds")
+        raise UsageError("--speeds: give at least three speeds")
     out = Path(args.out or Path("runs") / f"study-{scene.name}")
     study = run_study(scene, out, ratio=args.ratio, speeds=speeds, parts=parts,
                       finest=args.finest,

@@ -1,0 +1,105 @@
+"""The whale's surface type: a closed surface mesh with the paper's landmarks and regions."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from adapter.body.meshfile import write_region_stl, write_surface
+from adapter.body.polygons import triangulate, unique_edges
+from adapter.body.regions import BODY, FLIPPERS, FLUKES, REGIONS, flipper_triangles
+
+
+@dataclass
+class WhaleSurface:
+    """A closed surface mesh with the paper's landmarks.
+
+    Attributes
+    ----------
+    points : (N, 3) float64, rest positions (m).
+    faces : list of (F_k, n_k) int arrays, polygons grouped by corner count (3 or 4), outward.
+    landmarks : name -> node index, for every name in :data:`LANDMARKS`.
+    length : body length L (m), rostrum to tail end along x.
+    origin : position of the rostrum's axis point; s = (x - origin[0]) / length.
+    face_regions : None, or a list parallel to ``faces``: the region index (:data:`REGIONS`)
+        each face was built as (the procedural whale: its flipper and fluke fins); None for a
+        mesh file (:meth:`triangle_regions` then finds the flippers geometrically).
+    """
+
+    points: np.ndarray
+    faces: list
+    landmarks: dict
+    length: float
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    face_regions: list | None = None
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.points)
+
+    @property
+    def edges(self) -> np.ndarray:
+        """(E, 2) int64, every undirected edge once, smaller index first."""
+        return unique_edges(self.faces)
+
+    @property
+    def triangles(self) -> np.ndarray:
+        """(T, 3) int64: triangles, with each quad split along its shorter diagonal."""
+        return triangulate(self.points, self.faces)
+
+    @property
+    def s(self) -> np.ndarray:
+        """(N,) position of every node along the body, fraction of L from the rostrum."""
+        return (self.points[:, 0] - self.origin[0]) / self.length
+
+    def volume(self, points: np.ndarray | None = None) -> float:
+        """Enclosed volume (m^3) of the surface with the given node positions."""
+        p = self.points if points is None else points
+        t = self.triangles
+        a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
+        return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+
+    def triangle_regions(self) -> np.ndarray:
+        """(T,) int region index (:data:`REGIONS`) of every triangle of :attr:`triangles`.
+
+        Flukes: triangles whose centroid lies behind the tail base (s > s of the landmark
+        ``tail_base``, the animator's fluke gate). Flippers (of the rest): the faces built as
+        flippers when :attr:`face_regions` is known (the procedural whale), else the geometric
+        rule of :func:`flipper_triangles`. Body: everything else.
+        """
+        tri = self.triangles
+        centroid = self.points[tri].mean(axis=1)
+        s_c = (centroid[:, 0] - self.origin[0]) / self.length
+        if self.face_regions is not None:
+            per_tri = [r if f.shape[1] == 3 else np.concatenate([r, r])
+                       for f, r in zip(self.faces, self.face_regions, strict=True)]
+            flippers = np.concatenate(per_tri) == FLIPPERS
+        else:
+            flippers = flipper_triangles(self.points, tri, self.landmarks, self.origin,
+                                         self.length)
+        out = np.full(len(tri), BODY, dtype=np.int64)
+        out[flippers] = FLIPPERS
+        out[s_c > float(self.s[self.landmarks["tail_base"]])] = FLUKES
+        return out
+
+    def region_areas(self) -> dict:
+        """Area (m2) of every region of :meth:`triangle_regions`."""
+        p, tri = self.points, self.triangles
+        area = 0.5 * np.linalg.norm(np.cross(p[tri[:, 1]] - p[tri[:, 0]],
+                                             p[tri[:, 2]] - p[tri[:, 0]]), axis=1)
+        reg = self.triangle_regions()
+        return {name: float(area[reg == k].sum()) for k, name in enumerate(REGIONS)}
+
+    def write_regions_stl(self, path: str | Path) -> None:
+        """An ASCII STL with one solid per region, named as :data:`REGIONS` (the whaleLoads
+        function object's ``regions`` surface; docs/openfoam-plugin.md)."""
+        write_region_stl(path, self.points, self.triangles, self.triangle_regions())
+
+    def write(self, path: str | Path, point_data: dict | None = None) -> None:
+        """Write the surface; the format follows the suffix (STL, OBJ, VTK, VTU, VTP, PLY ...).
+
+        STL gets triangles (what snappyHexMesh reads); the other formats keep the quads.
+        """
+        write_surface(path, self.points, self.faces, point_data=point_data)

@@ -1,0 +1,142 @@
+"""The whale's drive: the stroke and the fluke gate, the time-dependent part of the motion.
+
+:class:`StrokeDrive` is what the integrators take as ``drive=`` (Integrator.step): the arrays
+of the time-aware right-hand side (:attr:`StrokeDrive.stage_arrays`, the layout of
+gait.drive_place / gait.drive_force) and their coefficients at every stage time
+(:meth:`StrokeDrive.stage_coefficients`). It also places the fluke gate on a state
+(:meth:`StrokeDrive.place`) and, for the paper's stroke, applies the velocity events at the
+quarter strokes (:meth:`StrokeDrive.event`). The animator owns one.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from adapter.errors import GeometryError
+from adapter.motion.gait import (
+    QUARTER_EVENTS,
+    SmoothStroke,
+    joint_bend,
+    load_fluke_table,
+    place_gate,
+    ramp,
+    smootherstep,
+)
+
+#: half-width (fraction of L) of the band of body nodes just ahead of the tail base whose
+#: mean motion carries the fluke hinge
+HINGE_BAND = 0.015
+
+
+class StrokeDrive:
+    """The stroke and the fluke gate of one whale.
+
+    Parameters
+    ----------
+    scene : :class:`~adapter.scene.Scene` (its ``stroke`` and period).
+    rest : (N, 3) rest positions (m).
+    s : (N,) position of every node along the body, fraction of L.
+    tail_base_s : s of the tail base (the fluke hinge).
+    dynamic : (N,) bool, the nodes the springs move (the rest, behind the tail base, are the
+        fluke gate's).
+    profile : (N,) the stroke's velocity profile (m/s, gait.velocity_profile).
+    network : the :class:`~adapter.body.springs.SpringNetwork` (its damping force on the
+        profile, which the smooth stroke's push cancels).
+    """
+
+    def __init__(self, scene, rest, s, tail_base_s, dynamic, profile, network):
+        self.rest, self.dynamic, self.profile = rest, dynamic, profile
+        band = dynamic & (s > tail_base_s - 2 * HINGE_BAND)
+        if band.sum() < 3:
+            raise GeometryError(
+                "too few body nodes just ahead of the tail base to carry the fluke hinge; "
+                "check geometry.landmarks.tail_base"
+            )
+        self.hinge_nodes = np.flatnonzero(band)
+        self.hinge0 = rest[self.hinge_nodes].mean(axis=0)
+        self._fluke_nodes = np.flatnonzero(~dynamic)
+        self._fluke_arm = rest[self._fluke_nodes] - self.hinge0
+        #: the share of the fluke angle each fluke node turns by (1: the paper's hinge)
+        self._fluke_bend = joint_bend(s[self._fluke_nodes], tail_base_s,
+                                      scene.stroke.fluke_joint)
+        st = scene.stroke
+        #: "smooth" (a continuous push along the profile) or "negate" (the paper's events)
+        self.reversal = st.reversal
+        self.smooth = st.reversal == "smooth"
+        self.fluke_table = load_fluke_table(st.fluke_table, scene.base_dir,
+                                            st.fluke_angle_scale, spline=self.smooth)
+        self.period = scene.period_s
+        #: the start-up: the fluke angle (and, smooth, the stroke) ramps in over it (s)
+        self.ramp_s = (st.ramp_cycles if self.smooth else st.fluke_ramp) * self.period
+        self._stroke = SmoothStroke(self.period, self.ramp_s)
+        moving = np.flatnonzero(dynamic)
+        #: smooth: the velocity force of the network on the target per unit G(t): the push
+        #: cancels it (damping between nodes and the fluid resistance nu)
+        moving_damping = network.damping_force(profile)[moving]
+        w_t = 2 * math.pi * st.tether * st.frequency_hz
+        #: (k, c): the smooth stroke's tether, a stiffness and a damping on every moving node
+        self.tether = (w_t * w_t, 2 * w_t)
+        # the paper's stroke has no force, only the gate
+        some = moving if self.smooth else np.zeros(0, dtype=np.int64)
+        c64 = np.ascontiguousarray
+        #: (rest, moving, profile, damping, (k, c), hinge nodes, fluke nodes, arms, hinge0,
+        #: bend): the arrays of the time-aware right-hand side (integrators.Integrator.step)
+        self.stage_arrays = (
+            c64(rest, dtype=np.float64), c64(some, dtype=np.int64),
+            c64(profile[moving][: len(some)], dtype=np.float64),
+            c64(moving_damping[: len(some)], dtype=np.float64),
+            np.array(self.tether, dtype=np.float64),
+            c64(self.hinge_nodes, dtype=np.int64), c64(self._fluke_nodes, dtype=np.int64),
+            c64(self._fluke_arm, dtype=np.float64), c64(self.hinge0, dtype=np.float64),
+            c64(self._fluke_bend, dtype=np.float64))
+
+    def stage_coefficients(self, t: float, dt: float, stages) -> np.ndarray:
+        """(len(stages), 5) rows (G'(s), G(s), D(s), theta(s), theta'(s)) at the stage times
+        s = t + c dt of an integrator step (c in ``stages``): the smooth stroke's time law
+        (gait.SmoothStroke; zero for the paper's stroke, whose events are not a force) and the
+        fluke gate's angle. The first stage is the state handed in, already gated: its angle
+        is not needed."""
+        out = np.zeros((len(stages), 5))
+        for k, c in enumerate(stages):
+            ts = t + c * dt
+            if self.smooth:
+                out[k, :3] = self._stroke.at(ts)
+            if k:
+                out[k, 3:] = self.fluke_angle(ts)
+        return out
+
+    def fluke_angle(self, t: float) -> tuple[float, float]:
+        """(angle, angular velocity) of the fluke gate at time t (rad, rad/s), ramp included."""
+        phase = t / self.period
+        if self.smooth:
+            r, r_dot = smootherstep(t, self.ramp_s)[:2]
+        else:
+            r, r_dot = ramp(t, self.ramp_s)
+        angle = self.fluke_table(phase)
+        return r * angle, r * self.fluke_table.rate(phase) / self.period + r_dot * angle
+
+    def place(self, X: np.ndarray, V: np.ndarray, t: float) -> None:
+        """Place the fluke gate, in place: shifted with the hinge, rotated by the table's angle
+        at t."""
+        theta, theta_dot = self.fluke_angle(t)
+        place_gate(X, V, self.rest, self.hinge_nodes, self._fluke_nodes, self._fluke_arm,
+                   self.hinge0, theta, theta_dot, self._fluke_bend)
+
+    def event(self, V: np.ndarray, n: int, steps_per_quarter: int) -> None:
+        """The stroke's velocity change (in place) on arriving at internal step ``n``.
+
+        Smooth: none; the push and the tether are a force in the integrator's right-hand side
+        (:meth:`stage_coefficients`, gait.stroke_force), evaluated at every stage time.
+        Negate: the event at the start of each quarter (gait.QUARTER_EVENTS)."""
+        if self.smooth or n % steps_per_quarter:
+            return
+        what = QUARTER_EVENTS[(n // steps_per_quarter) % 4]
+        dyn = self.dynamic
+        if what == "negate":
+            V[dyn] = -V[dyn]
+        else:
+            sign = 1.0 if what == "up" else -1.0
+            V[dyn] = 0.0
+            V[dyn, 2] = sign * self.profile[dyn]

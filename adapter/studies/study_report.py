@@ -1,0 +1,94 @@
+"""What the flow study shows: the accuracy-against-cost chart and the short table printed at
+its end, both from study.json's content (:mod:`adapter.studies.study_analysis`).
+
+They stay with the studies rather than in :mod:`adapter.reports` because they read the
+layout of study.json, which the study's analysis defines.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from adapter.errors import AdapterError
+
+
+def plot_accuracy_vs_cost(study: dict, path: Path) -> None:
+    """Each figure's difference from its extrapolated value (of its scale, %) against the wall
+    time per swimming cycle of each mesh; hollow markers: the GCI of the finest mesh."""
+    ms = study.get("meshes")
+    if not ms or not ms.get("figures"):
+        raise AdapterError("the three meshes have not all finished: nothing to chart")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cost = {k: (study["cases"][f"mesh-{k}/case"] or {}).get("wall_s_per_cycle") for k in
+            (1, 2, 3)}
+    fig, ax = plt.subplots(figsize=(7.5, 4.8), dpi=110)
+    for n, g in enumerate(ms["figures"].values()):
+        colour = f"C{n}"
+        pts = [(cost[k], 100 * g["difference"][str(k)]) for k in (1, 2, 3)
+               if cost[k] and g["difference"][str(k)] > 0]
+        if pts:
+            x, y = zip(*sorted(pts), strict=True)
+            ax.plot(x, y, "o-", color=colour, label=f"{g['label']}: |f - f_ext| / scale")
+            for k in (1, 2, 3) if n == 0 else ():
+                if cost[k] and g["difference"][str(k)] > 0:
+                    ax.annotate(f"mesh {k}", (cost[k], 100 * g["difference"][str(k)]),
+                                textcoords="offset points", xytext=(4, 4), fontsize=7)
+        if g.get("gci_fine_of_scale") and cost[1]:
+            ax.plot([cost[1]], [100 * g["gci_fine_of_scale"]], "o", mfc="none", ms=10,
+                    color=colour, label=f"{g['label']}: GCI of mesh 1 ({g['convergence']})")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("wall time per stroke cycle, swimming (s)")
+    ax.set_ylabel("error estimate (% of the figure; Fx: of the gliding drag)")
+    ax.set_title(f"Accuracy against cost: {study.get('scene')}, refinement ratio "
+                 f"{study.get('ratio')}", fontsize=10)
+    ax.grid(True, which="both", color="0.9")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def format_study(study: dict) -> str:
+    """The short table printed at the end."""
+    lines = []
+    ms = study.get("meshes")
+    rows = [(f"mesh-{k}", study["cases"].get(f"mesh-{k}/case")) for k in (1, 2, 3)]
+    if any(r for _, r in rows):
+        lines.append(f"{'mesh':<8}{'cells':>10}{'cell (m)':>10}{'drag (N)':>11}{'Fx (N)':>10}"
+                     f"{'power (W)':>11}{'s/cycle':>9}")
+        for name, r in rows:
+            if r:
+                lines.append(f"{name:<8}{r['cells'] or 0:>10,}{r['background_cell_m']:>10.3g}"
+                             f"{r['gliding_drag']:>11.1f}{r['swimming_fx']:>10.1f}"
+                             f"{r['swimming_power']:>11.1f}{r['wall_s_per_cycle'] or 0:>9.0f}")
+    if ms:
+        lines.append(f"refinement ratios r21 {ms['r21']:.3f}, r32 {ms['r32']:.3f}")
+        for g in ms["figures"].values():
+            ext = "-" if g["extrapolated"] is None else f"{g['extrapolated']:.1f}"
+            p = "-" if g["p"] is None else f"{g['p']:.2f}"
+            gf = "-" if g.get("gci_fine_of_scale") is None else f"{g['gci_fine_of_scale']:.2%}"
+            lines.append(f"  {g['label']:<22} {g['convergence']:<11} p {p:>5}  extrapolated "
+                         f"{ext:>9}  GCI(mesh 1) {gf}")
+    ts = study.get("time_step")
+    if ts:
+        lines.append(f"time step {ts['delta_t_s'][0]:.4g} -> {ts['delta_t_s'][1]:.4g} s: drag "
+                     f"{ts['gliding_drag_change']:.2%}, Fx {ts['swimming_fx_change_of_drag']:.2%}"
+                     f" of drag, power {ts['swimming_power_change']:.2%}")
+    sp = study.get("self_propelled")
+    if sp and sp.get("speed_m_s") is not None:
+        unc = (f" +- {sp['speed_uncertainty_m_s']:.2g}" if sp.get("speed_uncertainty_m_s")
+               is not None else "")
+        cot = sp.get("cost_of_transport_J_kg_m")
+        lines.append(f"self-propelled speed {sp['speed_m_s']:.3g}{unc} m/s ({sp['status']}, "
+                     f"{sp['fit']}), power {sp['power_W']:.0f} W"
+                     + (f", cost of transport {cot:.3g} J/(kg m)" if cot else ""))
+    elif sp:
+        lines.append(f"self-propelled speed: {sp.get('status')}")
+    if study.get("not_finished"):
+        lines.append("not finished: " + ", ".join(study["not_finished"]))
+    return "\n".join(lines)
