@@ -255,3 +255,28 @@ def test_study_on_the_smoke_whale_with_pimplefoam(tmp_path, smoke_scene, smoke_s
                 progress=False, log=lines.append)
     assert sum("finished earlier, skipped" in x for x in lines) == 3, lines
     print(f"smoke study, three meshes: {wall:.1f} s")
+
+
+def test_oscillating_or_diverging_meshes_are_not_extrapolated():
+    """Celik's p from |R| near 1 extrapolates far outside the values (mean Fx -886, -934, -884
+    on the default gave +405 N): an oscillating sequence keeps the finest mesh's value with
+    half the range as its band (Stern et al. 2001), a diverging one the whole spread, flagged
+    as a lower bound; a monotone one is still extrapolated."""
+    h = {1: 1.0, 2: 1.3, 3: 1.69}
+
+    def meshes(drag, fx, power):
+        return {k: {"background_cell_m": h[k], "gliding_drag": drag[k - 1],
+                    "swimming_fx": fx[k - 1], "swimming_power": power[k - 1]} for k in h}
+
+    ms = A.mesh_study(meshes([650.25, 626.53, 621.45], [-885.6, -934.2, -883.8],
+                             [1000.0, 1010.0, 1030.0]))
+    fx, drag, power = (ms["figures"][k] for k in ("swimming_fx", "gliding_drag",
+                                                   "swimming_power"))
+    assert fx["convergence"] == "oscillatory" and fx["reference"].startswith("finest")
+    assert fx["band_mesh2_abs"] == pytest.approx(0.5 * (934.2 - 883.8))
+    assert fx["difference"]["1"] == 0.0
+    assert drag["convergence"] == "divergent" and drag["band_is_lower_bound"]
+    assert drag["band_mesh2_abs"] == pytest.approx(650.25 - 621.45)
+    # monotone: e21 = 10, e32 = 20 at r = 1.3: p = ln 2 / ln 1.3, f_ext = 1000 - 10 / (2 - 1)
+    assert power["convergence"] == "monotone" and power["reference"] == "extrapolated"
+    assert power["extrapolated"] == pytest.approx(990.0, rel=1e-6)

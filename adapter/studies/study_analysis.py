@@ -94,19 +94,32 @@ def mesh_study(meshes: dict) -> dict:
         if all(v is not None for v in f):
             gs[key] = G.gci(*f, r21, r32)
             gs[key]["label"] = label
-    # the best value of each figure: extrapolated, or the finest mesh's when divergent
-    best = {key: g["extrapolated"] if g["extrapolated"] is not None else g["values"][0]
-            for key, g in gs.items()}
+    # the best value of each figure: extrapolated when the three converge monotonically; the
+    # finest mesh's otherwise (an oscillating or diverging sequence gives no trustworthy
+    # extrapolation: Celik's p from |R| near 1 extrapolates far outside the values)
+    best = {key: g["extrapolated"] if g["convergence"] in ("monotone", "converged")
+            and g["extrapolated"] is not None else g["values"][0] for key, g in gs.items()}
     for key, g in gs.items():
         scale = _scale(key, best) if "gliding_drag" in best else abs(best[key])
-        g.update(reference="extrapolated" if g["extrapolated"] is not None
-                 else "finest mesh (no extrapolation: divergent)", scale=scale,
+        values = g["values"]
+        g.update(reference="extrapolated" if best[key] is not values[0] else
+                 f"finest mesh (no extrapolation: {g['convergence']})", scale=scale,
+                 spread_abs=max(values) - min(values),
                  difference={str(k): abs(meshes[k][key] - best[key]) / scale
                              for k in (1, 2, 3)})
-        if g["gci_fine_abs"] is not None:
+        if g["convergence"] in ("monotone", "converged") and g["gci_fine_abs"] is not None:
             g["gci_fine_of_scale"] = g["gci_fine_abs"] / scale
             # mesh 2's band: 1.25 x its difference from the extrapolated value
             g["band_mesh2_abs"] = G.SAFETY * abs(meshes[2][key] - best[key])
+        elif g["convergence"] == "oscillatory":
+            # Stern et al. (2001), J. Fluids Eng. 123(4) 793: half the range of the solutions
+            g["gci_fine_of_scale"] = None
+            g["band_mesh2_abs"] = 0.5 * g["spread_abs"]
+        else:
+            # divergent: no error estimate exists; the spread of the three is a lower bound
+            g["gci_fine_of_scale"] = None
+            g["band_mesh2_abs"] = g["spread_abs"]
+            g["band_is_lower_bound"] = True
         out["figures"][key] = g
     return out
 

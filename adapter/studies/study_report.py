@@ -69,11 +69,15 @@ def format_study(study: dict) -> str:
     if ms:
         lines.append(f"refinement ratios r21 {ms['r21']:.3f}, r32 {ms['r32']:.3f}")
         for g in ms["figures"].values():
-            ext = "-" if g["extrapolated"] is None else f"{g['extrapolated']:.1f}"
-            p = "-" if g["p"] is None else f"{g['p']:.2f}"
+            used = g.get("reference") == "extrapolated"
+            ext = f"{g['extrapolated']:.1f}" if used else "-"
+            p = f"{g['p']:.2f}" if used and g["p"] is not None else "-"
             gf = "-" if g.get("gci_fine_of_scale") is None else f"{g['gci_fine_of_scale']:.2%}"
+            band = g.get("band_mesh2_abs")
+            note = ("" if band is None or used else
+                    f"  band +-{band:.3g}{' (at least)' if g.get('band_is_lower_bound') else ''}")
             lines.append(f"  {g['label']:<22} {g['convergence']:<11} p {p:>5}  extrapolated "
-                         f"{ext:>9}  GCI(mesh 1) {gf}")
+                         f"{ext:>9}  GCI(mesh 1) {gf}{note}")
     ts = study.get("time_step")
     if ts:
         lines.append(f"time step {ts['delta_t_s'][0]:.4g} -> {ts['delta_t_s'][1]:.4g} s: drag "
