@@ -32,6 +32,7 @@ import time
 from pathlib import Path
 
 from adapter.errors import AdapterError, ParaViewError
+from adapter.vtkfiles import read_pvd
 
 #: the pvbatch script, run by ParaView's own Python
 PV_SCRIPT = Path(__file__).resolve().parent / "pvscripts" / "report.py"
@@ -112,9 +113,8 @@ def case_layout(case: Path) -> tuple[str, list]:
 
 
 def pvd_times(pvd: Path) -> list:
-    """The ``timestep`` values of a ParaView collection file, sorted."""
-    text = pvd.read_text()
-    times = sorted({float(t) for t in re.findall(r'timestep="([^"]+)"', text)})
+    """The times of a ParaView collection file, sorted."""
+    times = sorted(read_pvd(pvd))
     if not times:
         raise AdapterError(f"{pvd} lists no frame; write it again with `whale-adapter dry-run`")
     return times
