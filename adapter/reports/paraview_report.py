@@ -32,6 +32,7 @@ import time
 from pathlib import Path
 
 from adapter.errors import AdapterError, ParaViewError
+from adapter.foamfiles import time_dirs
 from adapter.vtkfiles import read_pvd
 
 #: the pvbatch script, run by ParaView's own Python
@@ -84,28 +85,16 @@ def input_kind(path: Path) -> str:
         f" --case {path}` (coupled case) or `whale-adapter dry-run --out {path}` (dry-run)")
 
 
-def _numeric_dirs(path: Path) -> list:
-    out = []
-    for p in path.iterdir() if path.is_dir() else ():
-        try:
-            t = float(p.name)
-        except ValueError:
-            continue
-        if p.is_dir():
-            out.append(t)
-    return sorted(out)
-
-
 def case_layout(case: Path) -> tuple[str, list]:
     """(``"Reconstructed"`` or ``"Decomposed"``, the written times after 0 ParaView can show).
 
     Time 0 is left out: ParaView's OpenFOAM reader skips it by default, and the template's 0/
     files hold ``$Uinlet``-style macros that the reader cannot read.
     """
-    times = [t for t in _numeric_dirs(case) if t > 0]
+    times = [t for t, _ in time_dirs(case) if t > 0]
     if times:
         return "Reconstructed", times
-    times = [t for t in _numeric_dirs(case / "processor0") if t > 0]
+    times = [t for t, _ in time_dirs(case / "processor0") if t > 0]
     if times:
         return "Decomposed", times
     raise AdapterError(f"{case} has no written time after 0 to show; run it first with "
