@@ -205,6 +205,23 @@ def private_crossings(sources: dict[str, str]) -> list[str]:
     return bad
 
 
+def private_uses_by_tests(tests: dict[str, str], sources: dict[str, str]) -> list[str]:
+    """Private names of ``adapter`` modules that the tests (``{file name: source}``) use:
+    ``from adapter.m import _x`` and ``m._x`` of an imported ``adapter`` module. A test goes
+    through what the package offers other modules."""
+    bad = []
+    for name, source in sorted(tests.items()):
+        aliases = {}
+        for mod, line, names, alias in imports(f"tests.{name}", source, sources):
+            aliases.update(alias)
+            bad += [f"{name}:{line}: from {mod} import {n}" for n in names if _private(n)]
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, ast.Attribute) and _private(node.attr) \
+                    and isinstance(node.value, ast.Name) and node.value.id in aliases:
+                bad.append(f"{name}:{node.lineno}: {aliases[node.value.id]}.{node.attr}")
+    return bad
+
+
 #: where the size limits hold (issue 14): every room, the top's modules and the reports'
 #: pvbatch scripts included
 SIZED_ROOMS = ("adapter",)
@@ -260,6 +277,17 @@ def test_foamfiles_is_a_leaf(sources):
     """The time-folder scan, shared by the case's modules and the reports, imports nothing
     from the adapter."""
     assert import_graph(sources)["adapter.foamfiles"] == set()
+
+
+def test_the_tests_use_no_private_name_of_the_package(sources):
+    tests = {p.stem: p.read_text() for p in sorted(Path(__file__).parent.glob("*.py"))}
+    assert private_uses_by_tests(tests, sources) == []
+    planted = {"test_x": "from adapter.body import springs\n"
+                         "from adapter.body.springs import _kernel\n"
+                         "def test_k():\n    springs._kernel()\n    obj._own = 1\n"}
+    assert private_uses_by_tests(planted, _planted()) == [
+        "test_x:2: from adapter.body.springs import _kernel",
+        "test_x:4: adapter.body.springs._kernel"]
 
 
 #: the C++ plugin: its files are held to the module limit too

@@ -45,7 +45,7 @@ N_FIGURES = 4
 _PREFIX = "report: "
 _REL = 1e-9
 #: what pvbatch says when the X server went away under it (a display-number race): tried again
-_X_FAILURE = "bad X server connection"
+X_FAILURE = "bad X server connection"
 _X_RETRIES = 3
 
 
@@ -199,19 +199,19 @@ def _run_streaming(cmd: list, log, stream, cwd: Path) -> tuple[int, list, bool]:
     log.write(" ".join(cmd) + "\n")
     log.flush()
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            env=_clean_env(), cwd=cwd)
+                            env=pvbatch_env(), cwd=cwd)
     tail: list = []
     x_failed = False
     for line in proc.stdout:
         log.write(line)
         tail = (tail + [line.rstrip()])[-25:]
-        x_failed = x_failed or _X_FAILURE in line
+        x_failed = x_failed or X_FAILURE in line
         if line.startswith(_PREFIX):
             print("paraview: " + line[len(_PREFIX):].rstrip(), file=stream, flush=True)
     return proc.wait(), tail, x_failed
 
 
-def _clean_env() -> dict:
+def pvbatch_env() -> dict:
     """The environment for pvbatch: ParaView runs Debian's python3, not the venv's."""
     env = {k: v for k, v in os.environ.items()
            if k not in ("PYTHONHOME", "PYTHONPATH", "VIRTUAL_ENV", "PYTHONSTARTUP")}
