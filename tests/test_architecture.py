@@ -24,6 +24,7 @@ ROOMS = {
     "adapter.scene": "base",
     "adapter.resources": "base",
     "adapter.vtkfiles": "base",         # a leaf: imports only adapter.errors
+    "adapter.foamfiles": "base",        # a leaf: the time-folder scan
     "adapter.body": "body",
     "adapter.motion": "motion",
     "adapter.coupling": "coupling",
@@ -204,9 +205,26 @@ def private_crossings(sources: dict[str, str]) -> list[str]:
     return bad
 
 
-#: the rooms split into modules of one idea so far (issue 14); the size limits hold in them
-SIZED_ROOMS = ("adapter.foam", "adapter.coupling", "adapter.vtkfiles", "adapter.body",
-               "adapter.motion", "adapter.studies")
+def private_uses_by_tests(tests: dict[str, str], sources: dict[str, str]) -> list[str]:
+    """Private names of ``adapter`` modules that the tests (``{file name: source}``) use:
+    ``from adapter.m import _x`` and ``m._x`` of an imported ``adapter`` module. A test goes
+    through what the package offers other modules."""
+    bad = []
+    for name, source in sorted(tests.items()):
+        aliases = {}
+        for mod, line, names, alias in imports(f"tests.{name}", source, sources):
+            aliases.update(alias)
+            bad += [f"{name}:{line}: from {mod} import {n}" for n in names if _private(n)]
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, ast.Attribute) and _private(node.attr) \
+                    and isinstance(node.value, ast.Name) and node.value.id in aliases:
+                bad.append(f"{name}:{node.lineno}: {aliases[node.value.id]}.{node.attr}")
+    return bad
+
+
+#: where the size limits hold (issue 14): every room, the top's modules and the reports'
+#: pvbatch scripts included
+SIZED_ROOMS = ("adapter",)
 MAX_MODULE_LINES = 400
 MAX_CLASS_LINES = 250
 
@@ -255,6 +273,23 @@ def test_vtkfiles_is_a_leaf(sources):
     assert import_graph(sources)["adapter.vtkfiles"] <= {"adapter.errors"}
 
 
+def test_foamfiles_is_a_leaf(sources):
+    """The time-folder scan, shared by the case's modules and the reports, imports nothing
+    from the adapter."""
+    assert import_graph(sources)["adapter.foamfiles"] == set()
+
+
+def test_the_tests_use_no_private_name_of_the_package(sources):
+    tests = {p.stem: p.read_text() for p in sorted(Path(__file__).parent.glob("*.py"))}
+    assert private_uses_by_tests(tests, sources) == []
+    planted = {"test_x": "from adapter.body import springs\n"
+                         "from adapter.body.springs import _kernel\n"
+                         "def test_k():\n    springs._kernel()\n    obj._own = 1\n"}
+    assert private_uses_by_tests(planted, _planted()) == [
+        "test_x:2: from adapter.body.springs import _kernel",
+        "test_x:4: adapter.body.springs._kernel"]
+
+
 #: the C++ plugin: its files are held to the module limit too
 PLUGIN = PACKAGE / "foam" / "plugin" / "stepServerDisplacement"
 
@@ -268,7 +303,7 @@ def test_no_private_name_crosses_a_module_line(sources):
     assert private_crossings(sources) == []
 
 
-def test_modules_and_classes_are_small_in_the_split_rooms(sources):
+def test_modules_and_classes_are_small(sources):
     assert oversized(sources) == []
     big = {"adapter.foam.big": "class Big:\n" + "    x = 1\n" * MAX_CLASS_LINES}
     assert oversized(big) == ["adapter.foam.big.Big: 251 lines"]

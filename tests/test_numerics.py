@@ -89,10 +89,10 @@ def test_the_chooser_meets_its_stated_tolerance(smoke_scene):
     assert report["dt"] <= 0.05 + 1e-12
     assert report["dt"] <= smoke_scene.integrator.safety * next(
         o["stable_dt"] for o in report["options"] if o["method"] == report["method"])
-    chosen, _ = chooser._trace(smoke_scene, report["nodes"], report["method"], report["dt"])
+    chosen, _ = chooser.keypoint_trace(smoke_scene, report["nodes"], report["method"], report["dt"])
     # the truth: a finer whale than any candidate, at a small RK4 step
-    truth, _ = chooser._trace(smoke_scene, 4800, "rk4", 0.01)
-    assert chooser._diff(chosen, truth) <= report["budget_m"], report
+    truth, _ = chooser.keypoint_trace(smoke_scene, 4800, "rk4", 0.01)
+    assert chooser.trace_distance(chosen, truth) <= report["budget_m"], report
     # every choice can be overridden
     forced = chooser.choose(smoke_scene, tol, nodes=600, method="verlet", dt=0.02)
     assert (forced["nodes"], forced["method"]) == (600, "verlet")

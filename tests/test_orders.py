@@ -26,7 +26,7 @@ def whale(smoke_scene):
 
 @pytest.fixture(scope="module")
 def truth(whale):
-    X, _ = nm._whale_run(whale, "rk4", 2048)  # 21 times RK4's finest step below
+    X, _ = nm.whale_run(whale, "rk4", 2048)  # 21 times RK4's finest step below
     return X
 
 
@@ -35,7 +35,7 @@ def test_observed_order_on_the_whole_whale_is_the_methods(whale, truth, method):
     quarter = whale.period / 4
     errors = []
     for n in STEPS[method]:
-        X, _ = nm._whale_run(whale, method, n)
+        X, _ = nm.whale_run(whale, method, n)
         errors.append(float(np.linalg.norm(X - truth, axis=1).max()))
     dts = [quarter / n for n in STEPS[method]]
     order = np.polyfit(np.log(dts), np.log(errors), 1)[0]

@@ -220,8 +220,8 @@ def _load_state(state: Path) -> dict:
         proc = subprocess.run(["xvfb-run", "-a", "-n", str(700 + 37 * attempt + os.getpid() % 97),
                                "-s", R.XVFB_SCREEN, "pvpython", str(script), str(state)],
                               capture_output=True, text=True, cwd=state.parent,
-                              env=R._clean_env())
-        if R._X_FAILURE not in proc.stdout + proc.stderr:
+                              env=R.pvbatch_env())
+        if R.X_FAILURE not in proc.stdout + proc.stderr:
             break
     line = [s for s in proc.stdout.splitlines() if s.startswith("STATE ")]
     assert proc.returncode == 0 and line, f"LoadState failed:\n{proc.stdout}\n{proc.stderr}"

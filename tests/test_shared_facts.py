@@ -1,7 +1,8 @@
 """The C++ client and the Python server agree on what they share: the protocol's version, magic,
 header layout, payload limit and message types (stepServerWire.H), the endpoint file's name, the
 token's environment variable and the boundary condition's default timeouts (stepServerClient.H),
-against adapter/coupling/protocol.py. Read from the C++ sources as text, so it needs no compiler;
+against adapter/coupling/protocol.py; the default water density (patchLoads.C) against the
+scene's. Read from the C++ sources as text, so it needs no compiler;
 each check fails when either side changes.
 """
 
@@ -108,6 +109,17 @@ def test_no_other_literal_of_the_shared_facts_in_the_plugin():
         found += [f"{path.name}: {f}" for f in facts
                   if f'"{f}"' in code and path.name not in (WIRE_H, CLIENT_H)]
     assert found == []
+
+
+def test_the_plugin_default_density_is_the_scenes():
+    """The plugin's rhoInf default (patchLoads.C, for the boundary condition and whaleLoads
+    alike) is the scene's default water density, and no other code of the plugin writes it."""
+    from adapter.scene import Flow
+
+    code = {p.name: _strip_comments(p.read_text()) for p in sorted(PLUGIN_SRC.glob("*.[CH]"))}
+    m = re.search(r"patchLoads::defaultRhoInf\s*=\s*([\d.eE+-]+)\s*;", code["patchLoads.C"])
+    assert m and float(m[1]) == Flow().rho_kg_m3
+    assert [name for name, text in code.items() if "1025" in text] == ["patchLoads.C"]
 
 
 def test_the_parser_reads_what_it_is_given():

@@ -8,26 +8,20 @@ from pathlib import Path
 
 import numpy as np
 
+from adapter import vtkfiles
 from adapter.body.polygons import triangulate
 from adapter.body.regions import REGIONS
 from adapter.errors import GeometryError
 
 
 def write_surface(path, points, faces, point_data=None) -> None:
-    """Write a surface with meshio (pyvista for .vtp, which meshio does not write)."""
+    """Write a surface with meshio (.vtp, which meshio does not write, with
+    :func:`adapter.vtkfiles.write_vtp`)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     suffix = path.suffix.lower()
     if suffix == ".vtp":
-        import pyvista as pv
-
-        flat = np.concatenate(
-            [np.column_stack([np.full(len(f), f.shape[1]), f]).ravel() for f in faces]
-        )
-        poly = pv.PolyData(np.asarray(points, dtype=np.float64), flat)
-        for name, values in (point_data or {}).items():
-            poly.point_data[name] = np.asarray(values)
-        poly.save(str(path), binary=True)
+        vtkfiles.write_vtp(path, points, faces, point_data=point_data)
         return
     import meshio
 

@@ -1,27 +1,13 @@
-"""A case's folders: its time folders, its ``processor<N>`` folders and the time a run starts
-from. What a time folder is (a folder whose name is a number) is said here once; the readers
-of fields, meshes and function-object output (:mod:`adapter.foam.yplus`,
-:mod:`adapter.foam.loads`, :mod:`adapter.foam.summary`) use :func:`time_dirs`."""
+"""A case's folders: its ``processor<N>`` folders, the time a run starts from, the initial
+fields. The time folders are scanned by :func:`adapter.foamfiles.time_dirs` (imported here too,
+for the case's modules that reach them through this one)."""
 
 from __future__ import annotations
 
 import shutil
 from pathlib import Path
 
-
-def time_dirs(case: Path) -> list:
-    """``[(time, folder), ...]`` of the folders in ``case`` named by a number, earliest first
-    (a case's time folders, or a function object's start-time folders); empty when ``case``
-    is not a folder."""
-    case = Path(case)
-    out = []
-    for p in case.iterdir() if case.is_dir() else ():
-        if p.is_dir():
-            try:
-                out.append((float(p.name), p))
-            except ValueError:
-                pass
-    return sorted(out)
+from adapter.foamfiles import time_dirs
 
 
 def processor_dirs(case: Path) -> list:

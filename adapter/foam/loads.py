@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from adapter.errors import CaseError
-from adapter.foam.folders import time_dirs
+from adapter.foamfiles import time_dirs
 
 #: the function object's name in system/controlDict (its postProcessing folder)
 LOADS_NAME = "loads"

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from adapter.foam.folders import time_dirs
 from adapter.foam.logs import LogWatch
+from adapter.foamfiles import time_dirs
 
 #: the run's summary, in the case folder
 SUMMARY = "adapter-summary.json"

@@ -27,10 +27,10 @@ from adapter.errors import CaseError
 from adapter.foam import loads as ld
 from adapter.foam.case import read_record, write_json
 from adapter.foam.dictionaries import parsed_dict
-from adapter.foam.folders import time_dirs
 from adapter.foam.parallel import reconstruct_new_times
 from adapter.foam.run import run_case
 from adapter.foam.summary import SUMMARY
+from adapter.foamfiles import time_dirs
 
 GLIDING = "gliding"
 

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from adapter.errors import AdapterError, CaseError, FoamFileError
-from adapter.foam.folders import time_dirs
+from adapter.foamfiles import time_dirs
 
 #: the y+ limits reported as fractions of the area below them
 YPLUS_LIMITS = (1.0, 5.0, 30.0, 300.0)

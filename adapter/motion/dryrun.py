@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from adapter import vtkfiles
 from adapter.body.springs import momentum_rate
 from adapter.errors import UsageError
 from adapter.motion.animator import Animator
@@ -132,7 +133,7 @@ def run(scene, out: Path, cycles: int | None = None, progress: bool = True,
     summary.update(stroke_figures(a, kp, np.array(aoa), summary["start_s"]))
     summary["rest_offset_m"] = rest_offset
     if write_files:
-        _write_pvd(out / "whale.pvd", frame_files)
+        vtkfiles.write_pvd(out / "whale.pvd", frame_files)
         header = "t," + ",".join(KEYPOINTS)
         np.savetxt(out / "keypoints.csv", kp, delimiter=",", header=header, comments="",
                    fmt="%.9g")
@@ -235,20 +236,7 @@ def _midline_nodes(surf, width: float = 0.02) -> np.ndarray:
 
 def surf_write(surf, path: Path, X: np.ndarray, d: np.ndarray, v: np.ndarray) -> None:
     """One frame: the deformed surface with displacement and velocity as point data."""
-    from adapter.body.meshfile import write_surface
-
-    write_surface(path, X, surf.faces, point_data={"displacement": d, "velocity": v})
-
-
-def _write_pvd(path: Path, frames: list) -> None:
-    """A ParaView collection of the frames, one DataSet per time."""
-    rows = "\n".join(
-        f'    <DataSet timestep="{t:.9g}" group="" part="0" file="{name}"/>' for t, name in frames
-    )
-    path.write_text(
-        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" '
-        'byte_order="LittleEndian">\n  <Collection>\n' + rows + "\n  </Collection>\n</VTKFile>\n"
-    )
+    vtkfiles.write_vtp(path, X, surf.faces, point_data={"displacement": d, "velocity": v})
 
 
 def _progress(total: int, enabled: bool):

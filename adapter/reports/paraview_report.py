@@ -32,6 +32,8 @@ import time
 from pathlib import Path
 
 from adapter.errors import AdapterError, ParaViewError
+from adapter.foamfiles import time_dirs
+from adapter.vtkfiles import read_pvd
 
 #: the pvbatch script, run by ParaView's own Python
 PV_SCRIPT = Path(__file__).resolve().parent / "pvscripts" / "report.py"
@@ -43,7 +45,7 @@ N_FIGURES = 4
 _PREFIX = "report: "
 _REL = 1e-9
 #: what pvbatch says when the X server went away under it (a display-number race): tried again
-_X_FAILURE = "bad X server connection"
+X_FAILURE = "bad X server connection"
 _X_RETRIES = 3
 
 
@@ -83,28 +85,16 @@ def input_kind(path: Path) -> str:
         f" --case {path}` (coupled case) or `whale-adapter dry-run --out {path}` (dry-run)")
 
 
-def _numeric_dirs(path: Path) -> list:
-    out = []
-    for p in path.iterdir() if path.is_dir() else ():
-        try:
-            t = float(p.name)
-        except ValueError:
-            continue
-        if p.is_dir():
-            out.append(t)
-    return sorted(out)
-
-
 def case_layout(case: Path) -> tuple[str, list]:
     """(``"Reconstructed"`` or ``"Decomposed"``, the written times after 0 ParaView can show).
 
     Time 0 is left out: ParaView's OpenFOAM reader skips it by default, and the template's 0/
     files hold ``$Uinlet``-style macros that the reader cannot read.
     """
-    times = [t for t in _numeric_dirs(case) if t > 0]
+    times = [t for t, _ in time_dirs(case) if t > 0]
     if times:
         return "Reconstructed", times
-    times = [t for t in _numeric_dirs(case / "processor0") if t > 0]
+    times = [t for t, _ in time_dirs(case / "processor0") if t > 0]
     if times:
         return "Decomposed", times
     raise AdapterError(f"{case} has no written time after 0 to show; run it first with "
@@ -112,9 +102,8 @@ def case_layout(case: Path) -> tuple[str, list]:
 
 
 def pvd_times(pvd: Path) -> list:
-    """The ``timestep`` values of a ParaView collection file, sorted."""
-    text = pvd.read_text()
-    times = sorted({float(t) for t in re.findall(r'timestep="([^"]+)"', text)})
+    """The times of a ParaView collection file, sorted."""
+    times = sorted(read_pvd(pvd))
     if not times:
         raise AdapterError(f"{pvd} lists no frame; write it again with `whale-adapter dry-run`")
     return times
@@ -210,19 +199,19 @@ def _run_streaming(cmd: list, log, stream, cwd: Path) -> tuple[int, list, bool]:
     log.write(" ".join(cmd) + "\n")
     log.flush()
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            env=_clean_env(), cwd=cwd)
+                            env=pvbatch_env(), cwd=cwd)
     tail: list = []
     x_failed = False
     for line in proc.stdout:
         log.write(line)
         tail = (tail + [line.rstrip()])[-25:]
-        x_failed = x_failed or _X_FAILURE in line
+        x_failed = x_failed or X_FAILURE in line
         if line.startswith(_PREFIX):
             print("paraview: " + line[len(_PREFIX):].rstrip(), file=stream, flush=True)
     return proc.wait(), tail, x_failed
 
 
-def _clean_env() -> dict:
+def pvbatch_env() -> dict:
     """The environment for pvbatch: ParaView runs Debian's python3, not the venv's."""
     env = {k: v for k, v in os.environ.items()
            if k not in ("PYTHONHOME", "PYTHONPATH", "VIRTUAL_ENV", "PYTHONSTARTUP")}

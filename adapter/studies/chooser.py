@@ -41,7 +41,7 @@ CANDIDATE_NODES = (600, 1200, 2400, 5000, 11272)
 STEP_COST = {name: cls.step_cost for name, cls in METHODS.items()}
 
 
-def _trace(scene, nodes, method=None, dt=None):
+def keypoint_trace(scene, nodes, method=None, dt=None):
     """Key-point displacements (8 samples over one half-stroke, (8, 4, 3)) of a whale."""
     a = Animator.with_integrator(scene, method or "forward_euler", dt, nodes=nodes)
     kp = keypoint_nodes(a.surface.landmarks)
@@ -64,7 +64,8 @@ def _split_steps(scene, dt: float, duration: float) -> int:
     return int(0 < ramp < duration and abs(k - round(k)) > 1e-9)
 
 
-def _diff(a, b) -> float:
+def trace_distance(a, b) -> float:
+    """The largest distance (m) between two :func:`keypoint_trace` traces."""
     return float(np.linalg.norm(a - b, axis=2).max())
 
 
@@ -82,11 +83,11 @@ def choose(scene, tolerance_m: float, max_dt: float | None = None, fraction: flo
     # 1. resolution
     if nodes is None:
         cands = sorted(candidates)
-        traces = {n: _trace(scene, n)[0] for n in cands}
+        traces = {n: keypoint_trace(scene, n)[0] for n in cands}
         chosen, est = cands[-1], float("nan")
         for k, n in enumerate(cands[:-1]):
             # the error of a whale: its largest key-point difference from every finer one
-            e = max(_diff(traces[n], traces[m]) for m in cands[k + 1:])
+            e = max(trace_distance(traces[n], traces[m]) for m in cands[k + 1:])
             log(f"  {n} nodes: key-point error ~ {e:.3g} m (against {cands[k + 1:]})")
             if e <= budget / 2:
                 chosen, est = n, e
@@ -106,10 +107,10 @@ def choose(scene, tolerance_m: float, max_dt: float | None = None, fraction: flo
         if dt is not None:
             step = dt
         else:
-            t1, _ = _trace(scene, nodes, m, cap)
-            t2, _ = _trace(scene, nodes, m, cap / 2)
+            t1, _ = keypoint_trace(scene, nodes, m, cap)
+            t2, _ = keypoint_trace(scene, nodes, m, cap / 2)
             p = METHODS[m].order
-            e_cap = _diff(t1, t2) * 2**p / (2**p - 1)
+            e_cap = trace_distance(t1, t2) * 2**p / (2**p - 1)
             step = cap if e_cap <= budget / 2 else cap * (budget / 2 / e_cap) ** (1 / p)
         n_q = max(1, math.ceil(quarter / step - 1e-9))
         step = quarter / n_q

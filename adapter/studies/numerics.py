@@ -201,7 +201,7 @@ def stability_study(scene, mus, nodes=SMALL_NODES, log=print) -> list[dict]:
 
 # -- accuracy -------------------------------------------------------------------------------
 
-def _network_run(a, method: str, n_per_quarter: int) -> tuple[np.ndarray, float]:
+def network_run(a, method: str, n_per_quarter: int) -> tuple[np.ndarray, float]:
     """The spring network alone (no fluke gate: a smooth problem) from the upward stroke
     velocity over one half-stroke, with the negation at its middle on a step boundary.
     Returns the final positions (N, 3) and the wall time (s)."""
@@ -220,7 +220,7 @@ def _network_run(a, method: str, n_per_quarter: int) -> tuple[np.ndarray, float]
     return X, time.perf_counter() - t0
 
 
-def _whale_run(a, method: str, n_per_quarter: int) -> tuple[np.ndarray, float]:
+def whale_run(a, method: str, n_per_quarter: int) -> tuple[np.ndarray, float]:
     """The animator as it runs (the stroke's force and the fluke gate at every stage time,
     the paper's events if any) over one half-stroke: final positions and wall time."""
     a.set_integrator(method, a.period / 4 / n_per_quarter)
@@ -239,7 +239,7 @@ STEPS = {"forward_euler": (1600, 3200, 6400), "symplectic_euler": (1600, 3200, 6
 REFERENCE_STEPS = 4096  # RK4; against 8192 steps it differs by 2e-13 m: converged
 
 
-def order_study(a, steps=STEPS, runner=_network_run, log=print) -> tuple[list, dict]:
+def order_study(a, steps=STEPS, runner=network_run, log=print) -> tuple[list, dict]:
     """Error (max node distance at the end of a half-stroke, m) against step per method, and
     the observed order (least-squares slope of log error against log dt)."""
     ref, _ = runner(a, "rk4", REFERENCE_STEPS)
@@ -314,7 +314,7 @@ def run(scene, out: Path, quick: bool = False, log=print) -> dict:
                 "backward_euler": (8, 16, 32)}
     if quick:
         wp_steps = {m: s[:2] for m, s in wp_steps.items()}
-    wp, wp_orders = order_study(big, steps=wp_steps, runner=_whale_run, log=log)
+    wp, wp_orders = order_study(big, steps=wp_steps, runner=whale_run, log=log)
     for r in wp:
         r["nodes"] = big.surface.n_nodes
     write_csv(out / "work_precision.csv", wp)

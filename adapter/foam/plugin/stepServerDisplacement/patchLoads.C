@@ -13,6 +13,10 @@
 #include "patchLoads.H"
 #include "turbulentTransportModel.H"
 
+// * * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * //
+
+const Foam::scalar Foam::patchLoads::defaultRhoInf = 1025;
+
 // * * * * * * * * * * * * * * * * Constructors  * * * * * * * * * * * * * * //
 
 Foam::patchLoads::patchLoads

@@ -46,7 +46,7 @@ void stepServerDisplacementPointPatchVectorField::readEntries
         dict.getOrDefault<scalar>("connectTimeout", defaults::connectTimeout);
     replyTimeout_ =
         dict.getOrDefault<scalar>("replyTimeout", defaults::replyTimeout);
-    rhoInf_ = dict.getOrDefault<scalar>("rhoInf", 1025);
+    rhoInf_ = dict.getOrDefault<scalar>("rhoInf", patchLoads::defaultRhoInf);
 
     if (dict.found("port") && (port_ < 1 || port_ > 65535))
     {
@@ -157,7 +157,7 @@ stepServerDisplacementPointPatchVectorField
     endpointFile_(),
     connectTimeout_(defaults::connectTimeout),
     replyTimeout_(defaults::replyTimeout),
-    rhoInf_(1025),
+    rhoInf_(patchLoads::defaultRhoInf),
     state_(std::make_shared<couplingState>())
 {}
 
@@ -174,7 +174,7 @@ stepServerDisplacementPointPatchVectorField
     port_(0),
     connectTimeout_(defaults::connectTimeout),
     replyTimeout_(defaults::replyTimeout),
-    rhoInf_(1025),
+    rhoInf_(patchLoads::defaultRhoInf),
     state_(std::make_shared<couplingState>())
 {
     readEntries(dict);
@@ -253,8 +253,6 @@ void stepServerDisplacementPointPatchVectorField::updateCoeffs()
     {
         return;
     }
-
-    const Time& t = this->db().time();
 
     if (!state_->writeError.empty())
     {

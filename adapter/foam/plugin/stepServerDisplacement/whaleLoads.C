@@ -227,7 +227,7 @@ Foam::functionObjects::whaleLoads::whaleLoads
     fvMeshFunctionObject(name, runTime, dict),
     writeFile(mesh_, name),
     patchIDs_(),
-    rhoInf_(1025),
+    rhoInf_(patchLoads::defaultRhoInf),
     pName_("p"),
     UName_("U"),
     regionsFile_(),
@@ -255,7 +255,7 @@ bool Foam::functionObjects::whaleLoads::read(const dictionary& dict)
             << mesh_.boundaryMesh().names() << exit(FatalIOError);
     }
 
-    rhoInf_ = dict.getOrDefault<scalar>("rhoInf", 1025);
+    rhoInf_ = dict.getOrDefault<scalar>("rhoInf", patchLoads::defaultRhoInf);
     if (!(rhoInf_ > 0))
     {
         FatalIOErrorInFunction(dict)
