@@ -10,6 +10,7 @@ checker catch it.
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -297,6 +298,100 @@ PLUGIN = PACKAGE / "foam" / "plugin" / "stepServerDisplacement"
 def test_the_plugin_files_are_small():
     sizes = {p.name: len(p.read_text().splitlines()) for p in PLUGIN.glob("*.[CH]")}
     assert sizes and {k: n for k, n in sizes.items() if n > MAX_MODULE_LINES} == {}
+
+
+# -- C++ classes ------------------------------------------------------------------------------
+# A C++ class's size is its code lines (neither blank nor only comment): those of its
+# declaration in a .H (``class X ... };`` at column 0, inline members included) plus those of
+# its members defined in the .C files (``... X::name(...) ... { ... }``, wherever they are).
+# Code lines, not all lines, because OpenFOAM's style puts a ``//-`` comment on every member.
+
+def _blank_comments_and_strings(text: str) -> str:
+    """``text`` with comments and string/char literals blanked out, newlines kept."""
+    keep_newlines = lambda m: re.sub(r"[^\n]", " ", m.group(0))     # noqa: E731
+    pattern = r'//[^\n]*|/\*.*?\*/|"(?:\\.|[^"\\\n])*"|\'(?:\\.|[^\'\\\n])*\''
+    return re.sub(pattern, keep_newlines, text, flags=re.S)
+
+
+def _closing_brace(text: str, opening: int) -> int:
+    depth = 0
+    for i in range(opening, len(text)):
+        depth += {"{": 1, "}": -1}.get(text[i], 0)
+        if depth == 0:
+            return i
+    raise ValueError("unbalanced braces")
+
+
+def _code_lines(text: str) -> int:
+    return sum(1 for line in text.splitlines() if line.strip())
+
+
+_DECLARATION = re.compile(r"^(?:class|struct)\s+(\w+)[^;{]*\{", re.M)
+_MEMBER = re.compile(r"\b(\w+)::\s*(?:~?\w+|operator[^(]*)\s*\(")
+
+
+def cpp_class_sizes(files: dict[str, str]) -> dict[str, int]:
+    """{class: code lines} of the classes declared in the ``.H`` of ``{file name: text}``."""
+    sizes: dict[str, int] = {}
+    for name, text in sorted(files.items()):
+        if name.endswith(".H"):
+            text = _blank_comments_and_strings(text)
+            for m in _DECLARATION.finditer(text):
+                end = _closing_brace(text, m.end() - 1)
+                sizes[m[1]] = sizes.get(m[1], 0) + _code_lines(text[m.start():end + 1])
+    for name, text in sorted(files.items()):
+        if not name.endswith(".C"):
+            continue
+        text = _blank_comments_and_strings(text)
+        head = i = 0                    # head: where the current top-level statement began
+        while i < len(text):
+            if text[i] == "{" and not re.search(r"\bnamespace\s*\w*\s*$", text[head:i]):
+                end = _closing_brace(text, i)
+                m = _MEMBER.search(text[head:i])
+                if m and m[1] in sizes:
+                    sizes[m[1]] += _code_lines(text[head:end + 1])
+                head = i = end + 1
+                continue
+            if text[i] in "{};":        # a namespace opened or closed, a statement ended
+                head = i + 1
+            i += 1
+    return sizes
+
+
+#: classes over the limit, not split yet (issue 14), at their size when listed: they may shrink,
+#: not grow; take a class off the list once it is within the limit
+OVERSIZED_CLASSES = {
+    "whaleBlendedDisplacementMotionSolver": 410,
+    "stepServerClient": 367,
+    "whaleLoads": 282,
+}
+
+
+def test_the_plugin_classes_are_small():
+    sizes = cpp_class_sizes({p.name: p.read_text() for p in PLUGIN.glob("*.[CH]")})
+    assert sizes["stepServerDisplacementPointPatchVectorField"] <= MAX_CLASS_LINES
+    assert sizes["stepServerLink"] <= MAX_CLASS_LINES
+    over = {k: n for k, n in sizes.items() if n > MAX_CLASS_LINES}
+    assert over.keys() == OVERSIZED_CLASSES.keys(), over
+    assert {k: n for k, n in over.items() if n > OVERSIZED_CLASSES[k]} == {}
+
+
+def test_the_cpp_class_size_counts_declaration_and_definitions():
+    header = (
+        "/* class Fake in a comment { */\n"
+        "class Big\n:\n    public Base\n{\n    int x_;\n\n    //- comment\npublic:\n"
+        "    int x() const\n    {\n        return x_;\n    }\n};\n"
+        "class Fwd;\n"
+    )                                                   # 11 code lines in the declaration
+    source = (
+        '#include "Big.H"\n\nnamespace Foam\n{\n\nnamespace\n{\nint helper() { return 1; }\n}\n'
+        "\nint Big::\nf(int a) const\n{\n    // a comment\n    return a;\n}\n"       # 5
+        "\nBig::Big()\n:\n    x_(helper())\n{}\n"                                    # 4
+        '\nBig::~Big()\n{\n    const char* s = "}";\n}\n'                             # 4
+        "\nmakeType(Big)\n\n} // End namespace Foam\n"
+    )
+    sizes = cpp_class_sizes({"Big.H": header, "Big.C": source, "Other.C": "int Big::g() {}\n"})
+    assert sizes == {"Big": 11 + 5 + 4 + 4 + 1}
 
 
 def test_no_private_name_crosses_a_module_line(sources):

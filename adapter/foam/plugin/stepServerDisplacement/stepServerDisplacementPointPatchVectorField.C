@@ -13,16 +13,8 @@
 #include "pointPatchFields.H"
 #include "addToRunTimeSelectionTable.H"
 #include "Time.H"
-#include "polyMesh.H"
-#include "fvMesh.H"
 #include "pointFields.H"
-#include "points0MotionSolver.H"
 #include "patchLoads.H"
-
-#include <chrono>
-#include <iomanip>
-#include <limits>
-#include <sstream>
 
 // * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * //
 
@@ -54,11 +46,9 @@ void stepServerDisplacementPointPatchVectorField::readEntries
             << "stepServer: port " << port_
             << " out of range, expected 1..65535" << exit(FatalIOError);
     }
-    if
-    (
-        int(dict.found("port")) + int(dict.found("socket"))
-      + int(dict.found("endpoint")) > 1
-    )
+    const int nWays =
+        dict.found("port") + dict.found("socket") + dict.found("endpoint");
+    if (nWays > 1)
     {
         FatalIOErrorInFunction(dict)
             << "stepServer: give one of socket (UNIX), port (TCP) or endpoint"
@@ -94,50 +84,32 @@ void stepServerDisplacementPointPatchVectorField::readEntries
 }
 
 
-void stepServerDisplacementPointPatchVectorField::patchForces
-(
-    vector& fp,
-    vector& fv
-) const
+stepServer::Endpoint
+stepServerDisplacementPointPatchVectorField::endpoint() const
 {
-    const scalar nan = std::numeric_limits<scalar>::quiet_NaN();
-    fp = vector(nan, nan, nan);
-    fv = vector(nan, nan, nan);
-
-    const polyMesh& pMesh = this->internalField().mesh()();
-    if (!isA<fvMesh>(pMesh))
+    stepServer::Endpoint ep;
+    if (port_ > 0)
     {
-        return;
+        ep.host = host_;
+        ep.port = int(port_);
     }
-    const fvMesh& mesh = refCast<const fvMesh>(pMesh);
-    const label patchi = mesh.boundaryMesh().findPatchID(this->patch().name());
-    if (patchi < 0)
+    else if (!socket_.empty())
     {
-        return;
+        ep.socketPath = fileName(socket_).expand();
     }
-
-    // Collective (grad(U) across processor patches): every rank gets
-    // here at every update, whatever its share of the patch
-    const patchLoads loads(mesh, rhoInf_);
-    if (loads.hasPressure())
+    else if (!endpointFile_.empty())
     {
-        fp = sum(loads.pressure(patchi));
+        ep.endpointFile = fileName(endpointFile_).expand();
     }
-    if (loads.hasViscous())
+    else
     {
-        fv = sum(loads.viscous(patchi));
+        // The global case's endpoint file, as the server writes it
+        ep.endpointFile =
+            this->db().time().globalPath()/defaults::endpointFile;
     }
-}
-
-
-void stepServerDisplacementPointPatchVectorField::logStats() const
-{
-    const label n = state_->nRequests;
-    const double meanUs = n > 0 ? 1e6*state_->exchangeSeconds/n : 0;
-    std::ostringstream os;
-    os << std::fixed << std::setprecision(1) << meanUs;
-    Info<< "stepServer: " << n << " requests, mean " << os.str().c_str()
-        << " us per exchange" << endl;
+    ep.connectTimeout = connectTimeout_;
+    ep.replyTimeout = replyTimeout_;
+    return ep;
 }
 
 
@@ -151,14 +123,12 @@ stepServerDisplacementPointPatchVectorField
 )
 :
     fixedValuePointPatchField<vector>(p, iF),
-    socket_(),
     host_("127.0.0.1"),
     port_(0),
-    endpointFile_(),
     connectTimeout_(defaults::connectTimeout),
     replyTimeout_(defaults::replyTimeout),
     rhoInf_(patchLoads::defaultRhoInf),
-    state_(std::make_shared<couplingState>())
+    link_(std::make_shared<stepServerLink>())
 {}
 
 
@@ -175,7 +145,7 @@ stepServerDisplacementPointPatchVectorField
     connectTimeout_(defaults::connectTimeout),
     replyTimeout_(defaults::replyTimeout),
     rhoInf_(patchLoads::defaultRhoInf),
-    state_(std::make_shared<couplingState>())
+    link_(std::make_shared<stepServerLink>())
 {
     readEntries(dict);
 
@@ -205,7 +175,7 @@ stepServerDisplacementPointPatchVectorField
     connectTimeout_(ptf.connectTimeout_),
     replyTimeout_(ptf.replyTimeout_),
     rhoInf_(ptf.rhoInf_),
-    state_(std::make_shared<couplingState>())
+    link_(std::make_shared<stepServerLink>())
 {}
 
 
@@ -224,25 +194,8 @@ stepServerDisplacementPointPatchVectorField
     connectTimeout_(ptf.connectTimeout_),
     replyTimeout_(ptf.replyTimeout_),
     rhoInf_(ptf.rhoInf_),
-    state_(ptf.state_)
+    link_(ptf.link_)
 {}
-
-
-// * * * * * * * * * * * * * * * * Destructor  * * * * * * * * * * * * * * * //
-
-stepServerDisplacementPointPatchVectorField::
-~stepServerDisplacementPointPatchVectorField()
-{
-    if
-    (
-        state_ && state_.use_count() == 1
-     && state_->client && state_->client->connected()
-    )
-    {
-        logStats();
-        state_->client->bye();
-    }
-}
 
 
 // * * * * * * * * * * * * * * * Member Functions  * * * * * * * * * * * * * //
@@ -254,49 +207,14 @@ void stepServerDisplacementPointPatchVectorField::updateCoeffs()
         return;
     }
 
-    if (!state_->writeError.empty())
+    // The first update connects (collective: every rank's points gathered)
+    if (!link_->started())
     {
-        FatalErrorInFunction
-            << "stepServer: " << state_->writeError.c_str() << nl
-            << "    The last time folder was written completely: start the"
-            << " server again (whale-adapter serve --case <case>) and restart"
-            << " OpenFOAM from the latest time." << exit(FatalError);
+        link_->connect(this->patch(), endpoint());
     }
 
-    const bool first = !state_->started;
-    if (first)
-    {
-        connect();
-    }
-
-    const auto start = std::chrono::steady_clock::now();
-
-    // Forces from the fields at this mesh update (last completed step),
-    // summed over the ranks; NaN for the first request of a connection
-    vector fp, fv;
-    patchForces(fp, fv);
-    reduce(fp, sumOp<vector>());
-    reduce(fv, sumOp<vector>());
-    if (first)
-    {
-        const scalar nan = std::numeric_limits<scalar>::quiet_NaN();
-        fp = vector(nan, nan, nan);
-        fv = fp;
-    }
-
-    // The master's REQUEST for all points, each rank's slice scattered
-    this->operator==(exchange(fp, fv));
-
-    if (Pstream::master())
-    {
-        // The coupling cost per step as OpenFOAM sees it: forces reduced,
-        // request and reply, displacements scattered
-        state_->exchangeSeconds += std::chrono::duration<double>
-        (
-            std::chrono::steady_clock::now() - start
-        ).count();
-        ++state_->nRequests;
-    }
+    // The loads sent, this rank's slice of the displacement returned
+    this->operator==(link_->exchange(this->patch(), rhoInf_));
 
     fixedValuePointPatchField<vector>::updateCoeffs();
 }
@@ -304,33 +222,8 @@ void stepServerDisplacementPointPatchVectorField::updateCoeffs()
 
 void stepServerDisplacementPointPatchVectorField::write(Ostream& os) const
 {
-    const Time& t = this->db().time();
-    if
-    (
-        state_->client && state_->client->connected()
-     && t.writeTime() && state_->lastWriteIndex != t.timeIndex()
-    )
-    {
-        state_->lastWriteIndex = t.timeIndex();
-        try
-        {
-            state_->client->write(t.value());
-        }
-        catch (const stepServer::stepServerError& e)
-        {
-            // Not fatal here: OpenFOAM is writing this time folder, and a
-            // FatalError now would leave it cut short (not restartable).
-            // Finish the folder; the next update stops the run.
-            state_->failed = true;
-            state_->writeError =
-                "WRITE at time " + t.timeName() + " failed: " + e.what();
-            WarningInFunction
-                << "stepServer: " << state_->writeError.c_str()
-                << "; finishing this time folder, stopping at the next step"
-                << endl;
-        }
-        logStats();
-    }
+    // At a write time: WRITE(time), once per time
+    link_->write(this->db().time());
 
     pointPatchField<vector>::write(os);
     if (!socket_.empty())
