@@ -13,8 +13,10 @@ from adapter.errors import AdapterError
 
 
 def plot_accuracy_vs_cost(study: dict, path: Path) -> None:
-    """Each figure's difference from its extrapolated value (of its scale, %) against the wall
-    time per swimming cycle of each mesh; hollow markers: the GCI of the finest mesh."""
+    """Each figure's difference from its reference (the extrapolated value, or the finest mesh's
+    when the three do not converge monotonically; % of its scale) against the wall time per
+    swimming cycle of each mesh; hollow markers at mesh 1: its GCI, or its band (half the
+    oscillation, the spread of a divergence) when there is no GCI."""
     ms = study.get("meshes")
     if not ms or not ms.get("figures"):
         raise AdapterError("the three meshes have not all finished: nothing to chart")
@@ -32,7 +34,8 @@ def plot_accuracy_vs_cost(study: dict, path: Path) -> None:
                if cost[k] and g["difference"][str(k)] > 0]
         if pts:
             x, y = zip(*sorted(pts), strict=True)
-            ax.plot(x, y, "o-", color=colour, label=f"{g['label']}: |f - f_ext| / scale")
+            ref = "f_ext" if g.get("reference") == "extrapolated" else "f(mesh 1)"
+            ax.plot(x, y, "o-", color=colour, label=f"{g['label']}: |f - {ref}| / scale")
             for k in (1, 2, 3) if n == 0 else ():
                 if cost[k] and g["difference"][str(k)] > 0:
                     ax.annotate(f"mesh {k}", (cost[k], 100 * g["difference"][str(k)]),
@@ -40,6 +43,11 @@ def plot_accuracy_vs_cost(study: dict, path: Path) -> None:
         if g.get("gci_fine_of_scale") and cost[1]:
             ax.plot([cost[1]], [100 * g["gci_fine_of_scale"]], "o", mfc="none", ms=10,
                     color=colour, label=f"{g['label']}: GCI of mesh 1 ({g['convergence']})")
+        elif g.get("band_mesh2_abs") and g.get("scale") and cost[1]:
+            # no convergence: the band (half the oscillation, or the spread) at mesh 1
+            ax.plot([cost[1]], [100 * g["band_mesh2_abs"] / g["scale"]], "s", mfc="none",
+                    ms=9, color=colour, label=f"{g['label']}: band of mesh 1 "
+                    f"({g['convergence']}{', at least' if g.get('band_is_lower_bound') else ''})")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("wall time per stroke cycle, swimming (s)")
