@@ -5,6 +5,7 @@ Euler itself, written out here, run at and just past the bounds."""
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from scipy.spatial import ConvexHull
 
 from adapter.body.springs import network_from_edges
@@ -250,7 +251,9 @@ def test_first_order_matrix_and_spectrum_against_finite_differences():
     want = np.block([[np.zeros((m, m)), np.eye(m)],
                      [Jx[ff] - k * np.eye(m), Jv[ff] - c * np.eye(m)]])
     for f in (free, np.flatnonzero(free), list(np.flatnonzero(free))):
-        A = first_order_matrix(net, X, f, tether=(k, c)).toarray()
+        A = first_order_matrix(net, X, f, tether=(k, c))
+        assert isinstance(A, sp.csr_matrix)              # as documented
+        A = A.toarray()
         assert A.shape == (2 * m, 2 * m)
         assert A == pytest.approx(want, abs=1e-6 * np.abs(want).max())
     lam = np.sort_complex(spectrum(net, X, free, tether=(k, c)))
@@ -375,7 +378,8 @@ def test_the_fast_estimate_is_the_documented_bound(form):
         assert got["backward_euler"] == np.inf
         assert stable_dt(net, X, "forward_euler", exact=False) == \
             pytest.approx(got["forward_euler"], rel=1e-9)
-        for k, c in ((30.0, 0.5), (30.0, 1e4), (0.0, 0.5), (30.0, 0.0), (0.5, 1e-3)):
+        for k, c in ((30.0, 0.5), (30.0, 1e4), (0.0, 0.5), (30.0, 0.0), (0.5, 1e-3),
+                     (0.5, 0.0)):
             t = predict(net, X, exact=False, tether=(k, c))
             fe = min(got["forward_euler"], c / k) if k > 0 else got["forward_euler"]
             assert t["forward_euler"] == pytest.approx(fe, rel=1e-6)
@@ -398,6 +402,10 @@ def test_a_network_without_stiffness_or_damping_has_no_step_limit():
     net = network_from_edges(X, np.c_[net.i, net.j], 0 * net.k_node, 0.0, 0.0)
     got = predict(net, X, exact=True)
     assert got == dict.fromkeys(got, np.inf) and len(got) == 5
+    # nor on a network whose every node is held (free: no index, or an all-False mask)
+    X, net = _deformed()
+    for free in ([], np.zeros(net.n_nodes, bool)):
+        assert predict(net, X, free, exact=True) == got
 
 
 def test_the_mode_bracket_is_unstable_from_the_start():
