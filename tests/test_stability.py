@@ -5,6 +5,7 @@ Euler itself, written out here, run at and just past the bounds."""
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from scipy.spatial import ConvexHull
 
 from adapter.body.springs import network_from_edges
@@ -167,7 +168,7 @@ def test_closed_forms_of_the_stable_step():
     w2, c = np.array([100.0, 1.0, 0.0, 9.0]), np.array([0.5, 10.0, 2.0, 0.0])
     se = mode_stable_dt("symplectic_euler", w2, c)
     assert se == pytest.approx(4 / (c + np.sqrt(c * c + 4 * w2)), rel=1e-9)
-    w2 = np.array([1.0, 400.0, 2.5e7])
+    w2 = np.array([1e-4, 1.0, 400.0, 2.5e7])                # from a soft mode to a stiff one
     for method, limit in (("symplectic_euler", 2.0), ("verlet", 2.0),
                           ("rk4", 2 * np.sqrt(2))):
         assert mode_stable_dt(method, w2, 0 * w2) * np.sqrt(w2) == \
@@ -250,7 +251,9 @@ def test_first_order_matrix_and_spectrum_against_finite_differences():
     want = np.block([[np.zeros((m, m)), np.eye(m)],
                      [Jx[ff] - k * np.eye(m), Jv[ff] - c * np.eye(m)]])
     for f in (free, np.flatnonzero(free), list(np.flatnonzero(free))):
-        A = first_order_matrix(net, X, f, tether=(k, c)).toarray()
+        A = first_order_matrix(net, X, f, tether=(k, c))
+        assert isinstance(A, sp.csr_matrix)              # as documented
+        A = A.toarray()
         assert A.shape == (2 * m, 2 * m)
         assert A == pytest.approx(want, abs=1e-6 * np.abs(want).max())
     lam = np.sort_complex(spectrum(net, X, free, tether=(k, c)))
@@ -298,6 +301,12 @@ def test_mode_parameters_of_known_eigenvalues():
     w2s, cs = mode_parameters(np.r_[20j, -20j, slow])
     assert w2s == pytest.approx([400, 400, 1e-14, 1e-14], rel=1e-9)
     assert cs == pytest.approx([0, 0, 0, 0], abs=1e-20)
+    # the threshold is relative to the largest: 1e-4 next to 1e6 is neutral
+    w2b, cb = mode_parameters(np.array([1e6j, -1e6j, -1e-4 + 0j]))
+    assert w2b == pytest.approx([1e12, 1e12]) and cb == pytest.approx([0, 0], abs=1e-6)
+    # exactly at the thresholds: left out; real
+    w2e, ce = mode_parameters(np.array([2j, -2j, 2e-9, -0.5 + 2e-9j]))
+    assert w2e == pytest.approx([4, 4, 0]) and ce == pytest.approx([0, 0, 0.5])
     e_w2, e_c = mode_parameters(np.array([]))
     assert e_w2.size == 0 and e_c.size == 0
 
@@ -369,13 +378,46 @@ def test_the_fast_estimate_is_the_documented_bound(form):
         assert got["backward_euler"] == np.inf
         assert stable_dt(net, X, "forward_euler", exact=False) == \
             pytest.approx(got["forward_euler"], rel=1e-9)
-        for k, c in ((30.0, 0.5), (30.0, 1e4), (0.0, 0.5)):
+        for k, c in ((30.0, 0.5), (30.0, 1e4), (0.0, 0.5), (30.0, 0.0), (0.5, 1e-3),
+                     (0.5, 0.0)):
             t = predict(net, X, exact=False, tether=(k, c))
             fe = min(got["forward_euler"], c / k) if k > 0 else got["forward_euler"]
             assert t["forward_euler"] == pytest.approx(fe, rel=1e-6)
             assert t["rk4"] == pytest.approx(_h_star("rk4", lmax + k, cr + c), rel=1e-5)
     # only the methods asked for; without forward Euler, its bound is not computed
     assert set(predict(net, X, exact=False, methods=("verlet",))) == {"verlet"}
+    # some nodes held: the stiffest mode of the free ones
+    free = np.ones(net.n_nodes, bool)
+    free[[3, 4, 9]] = False
+    lmax, cr = _sym_top(net, X, free)
+    got = predict(net, X, free, exact=False)
+    assert got["forward_euler"] == pytest.approx(max(net.mu / k_max, net.nu / lmax), rel=1e-6)
+    assert got["rk4"] == pytest.approx(_h_star("rk4", lmax, cr), rel=1e-5)
+
+
+def test_a_network_without_stiffness_or_damping_has_no_step_limit():
+    """Every mode neutral (no springs, no damping): nothing limits the step."""
+    from adapter.motion.stability import predict
+    X, net = _closed_net(mu=0.0, nu=0.0, n=10)
+    net = network_from_edges(X, np.c_[net.i, net.j], 0 * net.k_node, 0.0, 0.0)
+    got = predict(net, X, exact=True)
+    assert got == dict.fromkeys(got, np.inf) and len(got) == 5
+    # nor on a network whose every node is held (free: no index, or an all-False mask)
+    X, net = _deformed()
+    for free in ([], np.zeros(net.n_nodes, bool)):
+        assert predict(net, X, free, exact=True) == got
+
+
+def test_the_mode_bracket_is_unstable_from_the_start():
+    """mode_stable_dt brackets each mode with 4 / sqrt(w2 + c^2/4); for every explicit
+    method and damping ratio from 0 to 100 that step is already unstable (so its doubling
+    loop is a safety net: docs/mutation.md lists its mutants as equivalent)."""
+    from adapter.motion.stability import spectral_radius
+    w2 = np.ones(400)
+    c = 2 * np.r_[0, np.geomspace(1e-4, 100, 399)]
+    hi = 4.0 / np.sqrt(w2 + 0.25 * c * c)
+    for method in ("forward_euler", "symplectic_euler", "verlet", "rk4"):
+        assert (spectral_radius(method, w2, c, hi) > 1 + 1e-6).all(), method
 
 
 def test_exact_is_chosen_by_size(monkeypatch):
@@ -410,3 +452,22 @@ def test_paper_criterion_dt():
     F = np.array([[1.0, 2.0, 2.0], [3.0, -4.0, 12.0], [0.0, 0.0, -5.0]])
     assert paper_criterion_dt(F) == pytest.approx(1 / 13, rel=1e-15)
     assert paper_criterion_dt(np.zeros((4, 3))) == np.inf
+    assert paper_criterion_dt(F / 26) == pytest.approx(2.0, rel=1e-15)
+
+
+def test_the_fast_estimate_converges_on_a_larger_network():
+    """On 1200 degrees of freedom the stiffest mode to the digits of a dense eigensolver
+    (K's symmetric part from springs.stiffness_matrix, which tests/test_springs.py checks
+    against finite differences)."""
+    from adapter.body.springs import damping_matrix, stiffness_matrix
+    from adapter.motion.stability import predict
+    X, net = _closed_net(n=400, seed=2)
+    X = X * [1.04, 0.97, 1.02]
+    K = stiffness_matrix(net, X, symmetric=False).toarray()
+    w, v = np.linalg.eigh(0.5 * (K + K.T))
+    u = v[:, -1]
+    c = float(u @ damping_matrix(net).toarray() @ u)
+    got = predict(net, X, exact=False, methods=("rk4", "forward_euler"))
+    assert got["rk4"] == pytest.approx(_h_star("rk4", w[-1], c), rel=1e-6)
+    k_max = max(net.k_on_i.max(), net.k_on_j.max())
+    assert got["forward_euler"] == pytest.approx(max(net.mu / k_max, net.nu / w[-1]), rel=1e-6)
