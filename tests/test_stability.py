@@ -471,3 +471,20 @@ def test_the_fast_estimate_converges_on_a_larger_network():
     assert got["rk4"] == pytest.approx(_h_star("rk4", w[-1], c), rel=1e-6)
     k_max = max(net.k_on_i.max(), net.k_on_j.max())
     assert got["forward_euler"] == pytest.approx(max(net.mu / k_max, net.nu / w[-1]), rel=1e-6)
+
+
+def test_the_fast_estimate_takes_the_stiffest_mode_of_a_compressed_network():
+    """Squeezed to half its rest size, the network's geometric stiffness (1 - l/|d|) is
+    negative across its edges and K's eigenvalue of largest modulus is negative: the fast
+    estimate still takes the largest (stiffest) one, as finite differences give it."""
+    from adapter.motion.stability import predict
+    X, net = _closed_net(n=14, seed=5)
+    X = 0.5 * X
+    lmax, cr = _sym_top(net, X)
+    Jx, _ = _fd_jacobians(net, X)
+    w = np.linalg.eigvalsh(-0.5 * (Jx + Jx.T))
+    assert lmax > 0 and abs(w[0]) > lmax                  # the case in point
+    got = predict(net, X, exact=False, methods=("rk4", "forward_euler"))
+    assert got["rk4"] == pytest.approx(_h_star("rk4", lmax, cr), rel=1e-5)
+    k_max = max(net.k_on_i.max(), net.k_on_j.max())
+    assert got["forward_euler"] == pytest.approx(max(net.mu / k_max, net.nu / lmax), rel=1e-6)
