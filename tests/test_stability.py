@@ -31,15 +31,7 @@ def _exact_fe_bound(net, X):
     x' = v, v' = F(x, v): dt <= -2 Re(lambda) / |lambda|^2. The Jacobian of F is taken by
     central differences of the reference force law (tests/test_springs.py checks it by hand)."""
     m = 3 * net.n_nodes
-    V0 = np.zeros_like(X)
-    Jx, Jv = np.empty((m, m)), np.empty((m, m))
-    h = 1e-6
-    for a in range(m):
-        e = np.zeros(m)
-        e[a] = h
-        E = e.reshape(-1, 3)
-        Jx[:, a] = ((net.forces_numpy(X + E, V0) - net.forces_numpy(X - E, V0)) / (2 * h)).ravel()
-        Jv[:, a] = ((net.forces_numpy(X, V0 + E) - net.forces_numpy(X, V0 - E)) / (2 * h)).ravel()
+    Jx, Jv = _fd_jacobians(net, X)
     A = np.block([[np.zeros((m, m)), np.eye(m)], [Jx, Jv]])
     lam = np.linalg.eigvals(A)
     lam = lam[np.abs(lam) > 1e-7 * np.abs(lam).max()]  # rigid motions and neutral modes

@@ -204,19 +204,19 @@ def _unix_address(path: Path) -> tuple[str, int | None]:
     return f"/proc/self/fd/{fd}/{path.name}", fd
 
 
-def _bind_unix(sock: socket.socket, path: Path) -> None:
+def _at_unix_address(action, path: Path) -> None:
+    """``action(address)`` (a socket's bind or connect) at ``path``, however long it is."""
     addr, fd = _unix_address(path)
     try:
-        sock.bind(addr)
+        action(addr)
     finally:
         if fd is not None:
             os.close(fd)
+
+
+def _bind_unix(sock: socket.socket, path: Path) -> None:
+    _at_unix_address(sock.bind, path)
 
 
 def _connect_unix(sock: socket.socket, path: Path) -> None:
-    addr, fd = _unix_address(path)
-    try:
-        sock.connect(addr)
-    finally:
-        if fd is not None:
-            os.close(fd)
+    _at_unix_address(sock.connect, path)
