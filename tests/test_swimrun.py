@@ -79,6 +79,34 @@ def test_worst_drop_is_the_brute_force_worst_case():
     assert k == max(1, int(0.01 * len(x)))
 
 
+def test_the_smooth_part_tells_a_swing_from_a_spike():
+    """A sinusoid M + A cos(2 pi t / T), 400 samples a period: its worst 1 % (4 samples, the
+    ones nearest the crest, at phases +-0.5 and +-1.5 steps) lie
+    A (cos(pi/400) + cos(3 pi/400)) / 2 above the mean, so dropping them moves the mean by
+    4 x that / 396. A one-step spike of 20 A on top moves the raw figure by about 20 A / 396
+    (the smooth part keeps 21 / 400 of the spike, spread over a bump: a little of it shows)
+    while the smooth part's figure stays within a tenth of that excess of the sinusoid's."""
+    n, mean, amp = 400, -886.0, 1450.0
+    t = (np.arange(n) + 0.5) / n
+    swing = mean + amp * np.cos(2 * np.pi * t)
+    exact = 4 * amp * (np.cos(np.pi / n) + np.cos(3 * np.pi / n)) / 2 / (n - 4)
+    assert ld.worst_drop(swing) == pytest.approx(exact, rel=1e-9)
+    assert ld.worst_drop(ld.smooth_part(swing)) == pytest.approx(exact, rel=1e-9)
+    spiked = swing.copy()
+    spiked[123] += 20 * amp
+    raw = ld.worst_drop(spiked)
+    # the spike's sample and three crest samples, from the mean that the spike raised
+    top = (20 * amp + amp * np.cos(2 * np.pi * t[123])
+           + amp * (2 * np.cos(np.pi / n) + np.cos(3 * np.pi / n)) - 4 * 20 * amp / n)
+    assert raw == pytest.approx(top / (n - 4), rel=1e-9)
+    excess = raw - exact
+    assert abs(ld.worst_drop(ld.smooth_part(spiked)) - exact) < 0.1 * excess
+    # the figures as run-case reports them, over one period of samples at times t
+    fig = ld.spike_figures(t, spiked, 0 * t, 0 * t, spiked, (0.0, 1.0))
+    assert fig["drop_1pct_fx_N"] == pytest.approx(raw)
+    assert abs(fig["smooth_drop_1pct_fx_N"] - exact) < 0.1 * excess
+
+
 def test_flat_plate_friction_of_the_issue():
     """The issue's figure: about 290 N for a flat plate of 125.8 m2 at 1.3 m/s, L = 15 m
     (ITTC-57: Re = 1.95e7, Cf = 0.075 / (7.290 - 2)^2 = 2.680e-3)."""

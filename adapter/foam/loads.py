@@ -132,17 +132,36 @@ def worst_drop(x: np.ndarray, fraction: float = 0.01) -> float:
     return float(max(abs(dev[-k:].sum()), abs(dev[:k].sum())) / (n - k))
 
 
+#: the harmonics of the stroke frequency kept in the smooth part of a one-cycle signal
+SMOOTH_HARMONICS = 10
+
+
+def smooth_part(x: np.ndarray, harmonics: int = SMOOTH_HARMONICS) -> np.ndarray:
+    """The samples of one whole period of a signal, with its Fourier series cut after
+    ``harmonics`` harmonics of the period: what is left when no single step stands out (a
+    one-step spike spreads over all frequencies, most of it above the cut)."""
+    c = np.fft.rfft(x)
+    c[harmonics + 1:] = 0.0
+    return np.fft.irfft(c, n=len(x))
+
+
 def spike_figures(t, fx, fy, fz, power, window: tuple) -> dict:
-    """Over the window: the largest step |F| against the RMS of |F|, and what dropping the
-    worst 1 % of the steps does to the means of Fx and power."""
+    """Over the window (one stroke period): the largest step |F| against the RMS of |F|, and
+    what dropping the worst 1 % of the steps does to the means of Fx and power, for the signal
+    and for its smooth part (:func:`smooth_part`). Where the two drops agree, the drop comes
+    from the smooth swing of the signal, not from steps that stand out of it."""
     a, b = window
     sel = (t > a) & (t <= b + 1e-9)
     mag = np.sqrt(fx[sel] ** 2 + fy[sel] ** 2 + fz[sel] ** 2)
     rms = float(np.sqrt((mag**2).mean())) if sel.any() else float("nan")
+    enough = sel.sum() > 2 * SMOOTH_HARMONICS + 1
     return {
         "max_force_over_rms": float(mag.max() / rms) if sel.any() and rms > 0 else float("nan"),
         "drop_1pct_fx_N": worst_drop(fx[sel]),
         "drop_1pct_power_W": worst_drop(power[sel]),
+        "smooth_drop_1pct_fx_N": worst_drop(smooth_part(fx[sel])) if enough else float("nan"),
+        "smooth_drop_1pct_power_W": (worst_drop(smooth_part(power[sel])) if enough
+                                     else float("nan")),
     }
 
 

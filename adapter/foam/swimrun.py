@@ -179,6 +179,7 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
                             "reached": bool(dfx < tolerance and dp < tolerance)},
         "spikes": {**spikes,
                    "drop_1pct_fx_of_gliding_drag": spikes["drop_1pct_fx_N"] / abs(drag),
+                   "drop_1pct_fx_of_mean_fx": spikes["drop_1pct_fx_N"] / abs(st.mean_fx[-1]),
                    "drop_1pct_power": spikes["drop_1pct_power_W"]
                    / abs(st.mean_power[-1])},
         # per body region (whale.body, whale.flippers, whale.flukes): same windows
@@ -238,6 +239,9 @@ COST_ROWS = [
      "{:.1%}"),
     ("cycle-to-cycle change: power", "swimming_cost/periodic_change/power", "{:.1%}"),
     ("largest step |F| / RMS of |F|", "swimming_cost/spikes/max_force_over_rms", "{:.2f}"),
+    ("drop worst 1 % of steps: mean Fx moves", "swimming_cost/spikes/drop_1pct_fx_N", "{:.1f} N"),
+    ("  the same, smooth part of Fx", "swimming_cost/spikes/smooth_drop_1pct_fx_N", "{:.1f} N"),
+    ("drop worst 1 % of steps: mean power", "swimming_cost/spikes/drop_1pct_power", "{:.1%}"),
     ("y+ <= 300: share of the area, worst write", "yplus/worst_area_le_300", "{:.1%}"),
     ("y+ median (area-weighted, last write)", "yplus/median", "{:.0f}"),
     ("cells", "cells", "{:,}"),
