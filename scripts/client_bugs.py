@@ -4,8 +4,9 @@ tests/test_client_wire.py fails on each (docs/mutation.md, "The C++ client").
     python scripts/client_bugs.py            # every bug below (about 5 s each)
     python scripts/client_bugs.py 3 7        # only these (numbers as listed)
 
-Each bug is one textual change in stepServerClient.C or stepServerStream.C; the copy is compiled
-by the test's own fixture (``WHALE_CLIENT_SRC``). Prints, per bug, the tests that failed; exits 1
+Each bug is one textual change in stepServerClient.C (the messages), stepServerChannel.C (the
+frames) or stepServerStream.C (the socket); the copy is compiled by the test's own fixture
+(``WHALE_CLIENT_SRC``). Prints, per bug, the tests that failed; exits 1
 if any bug passed every test (or the clean copy fails).
 """
 
@@ -22,18 +23,19 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 PLUGIN = ROOT / "adapter" / "foam" / "plugin" / "stepServerDisplacement"
 CLIENT = "stepServerClient.C"
+CHANNEL = "stepServerChannel.C"
 STREAM = "stepServerStream.C"
 
 #: (what, file, original text, planted text)
 BUGS = [
-    ("ERROR's message dropped", CLIENT,
+    ("ERROR's message dropped", CHANNEL,
      'ctx + ": " + msg);', 'ctx + ": ");'),
-    ("ERROR's code not read", CLIENT,
+    ("ERROR's code not read", CHANNEL,
      "len >= 4 ? getU32(payload.data()) : 0", "0"),
-    ("ERROR checked after the type (an ERROR becomes 'unexpected')", CLIENT,
+    ("ERROR checked after the type (an ERROR becomes 'unexpected')", CHANNEL,
      "if (type == ERROR)", "if (type == ERROR && type == expected)"),
-    ("any newer version accepted", CLIENT, "if (ver != version)", "if (ver < version)"),
-    ("the magic's last byte not checked", CLIENT,
+    ("any newer version accepted", CHANNEL, "if (ver != version)", "if (ver < version)"),
+    ("the magic's last byte not checked", CHANNEL,
      "std::memcmp(h, magic, 4) != 0", "std::memcmp(h, magic, 3) != 0"),
     ("NaN in a displacement accepted", CLIENT,
      "!std::isfinite(d[i])", "std::isinf(d[i])"),
@@ -43,8 +45,8 @@ BUGS = [
     ("DISPLACEMENT's time not checked", CLIENT, "if (rt != t)", "if (rt != t && false)"),
     ("DISPLACEMENT's size check only a minimum", CLIENT,
      "r.size() < 12 || r.size() != expected", "r.size() < expected"),
-    ("sequence number not checked", CLIENT, "if (rseq != seq)", "if (false && rseq != seq)"),
-    ("sequence numbers from 0", CLIENT, "const std::uint32_t seq = ++seq_;",
+    ("sequence number not checked", CHANNEL, "if (rseq != seq)", "if (false && rseq != seq)"),
+    ("sequence numbers from 0", CHANNEL, "const std::uint32_t seq = ++seq_;",
      "const std::uint32_t seq = seq_++;"),
     ("HELLO: nRanks and nPoints swapped", CLIENT,
      "putU32(p, nRanks);\n    putU32(p, std::uint32_t(nPoints_));",
@@ -56,7 +58,7 @@ BUGS = [
      "    for (double f : viscousForce) putF64(p, f);",
      "for (double f : viscousForce) putF64(p, f);\n"
      "    for (double f : pressureForce) putF64(p, f);"),
-    ("payload limit not enforced before reading", CLIENT,
+    ("payload limit not enforced before reading", CHANNEL,
      "if (len > maxPayload)", "if (len > 2*maxPayload)"),
     ("ACK with a payload accepted", CLIENT, "if (!r.empty())", "if (r.size() > 1)"),
     ("EOF not noticed (waits for the timeout)", STREAM, "if (got == 0)", "if (got == 0 && false)"),

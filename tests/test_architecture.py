@@ -358,22 +358,12 @@ def cpp_class_sizes(files: dict[str, str]) -> dict[str, int]:
     return sizes
 
 
-#: classes over the limit, not split yet (issue 14), at their size when listed: they may shrink,
-#: not grow; take a class off the list once it is within the limit
-OVERSIZED_CLASSES = {
-    "whaleBlendedDisplacementMotionSolver": 410,
-    "stepServerClient": 367,
-    "whaleLoads": 282,
-}
-
-
 def test_the_plugin_classes_are_small():
     sizes = cpp_class_sizes({p.name: p.read_text() for p in PLUGIN.glob("*.[CH]")})
-    assert sizes["stepServerDisplacementPointPatchVectorField"] <= MAX_CLASS_LINES
-    assert sizes["stepServerLink"] <= MAX_CLASS_LINES
-    over = {k: n for k, n in sizes.items() if n > MAX_CLASS_LINES}
-    assert over.keys() == OVERSIZED_CLASSES.keys(), over
-    assert {k: n for k, n in over.items() if n > OVERSIZED_CLASSES[k]} == {}
+    # the counter finds the plugin's main classes (one it missed would pass unseen)
+    assert {"stepServerDisplacementPointPatchVectorField", "stepServerLink", "stepServerClient",
+            "whaleLoads", "whaleBlendedDisplacementMotionSolver"} <= sizes.keys()
+    assert {k: n for k, n in sizes.items() if n > MAX_CLASS_LINES} == {}
 
 
 def test_the_cpp_class_size_counts_declaration_and_definitions():

@@ -1,9 +1,10 @@
 """The plugin's C++ client (stepServerClient) against golden frames written from docs/protocol.md.
 
 A small driver, tests/harness/stepServerClientHarness.C, is compiled once per session with the
-client's two sources (stepServerClient.C, stepServerStream.C; no OpenFOAM library: the client has
-no OpenFOAM types) and wmake's flags for the plugin (linux64Gcc, Opt). Each test runs it against a
-fake step-server in a thread that records the client's frames and answers with frames assembled
+client's four sources (stepServerEndpoint.C, stepServerStream.C, stepServerChannel.C,
+stepServerClient.C; no OpenFOAM library: the client has no OpenFOAM types) and wmake's flags for
+the plugin (linux64Gcc, Opt). Each test runs it against a fake step-server in a thread that
+records the client's frames and answers with frames assembled
 here with ``struct`` from the document's tables, never with adapter.coupling.protocol: the magic,
 version, message types and error codes are read from docs/protocol.md itself.
 
@@ -38,7 +39,9 @@ from .conftest import NEEDS_FOAM_AND_PLUGIN
 
 REPO = Path(__file__).resolve().parents[1]
 HARNESS = Path(__file__).parent / "harness" / "stepServerClientHarness.C"
-CLIENT_SOURCES = ("stepServerClient.C", "stepServerStream.C")
+CLIENT_SOURCES = (
+    "stepServerEndpoint.C", "stepServerStream.C", "stepServerChannel.C", "stepServerClient.C"
+)
 
 pytestmark = [
     *NEEDS_FOAM_AND_PLUGIN,

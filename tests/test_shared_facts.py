@@ -1,6 +1,6 @@
 """The C++ client and the Python server agree on what they share: the protocol's version, magic,
 header layout, payload limit and message types (stepServerWire.H), the endpoint file's name, the
-token's environment variable and the boundary condition's default timeouts (stepServerClient.H),
+token's environment variable and the boundary condition's default timeouts (stepServerEndpoint.H),
 against adapter/coupling/protocol.py; the default water density (patchLoads.C) against the
 scene's. Read from the C++ sources as text, so it needs no compiler;
 each check fails when either side changes.
@@ -18,7 +18,7 @@ from adapter.coupling.protocol import MessageType
 from adapter.resources import PLUGIN_SRC
 
 WIRE_H = "stepServerWire.H"
-CLIENT_H = "stepServerClient.H"
+ENDPOINT_H = "stepServerEndpoint.H"
 
 
 def _strip_comments(text: str) -> str:
@@ -62,8 +62,8 @@ def wire_h() -> dict:
 
 
 @pytest.fixture(scope="module")
-def client_h() -> dict[str, str]:
-    return cpp_constants((PLUGIN_SRC / CLIENT_H).read_text())
+def endpoint_h() -> dict[str, str]:
+    return cpp_constants((PLUGIN_SRC / ENDPOINT_H).read_text())
 
 
 def _header_offsets() -> list[int]:
@@ -92,22 +92,22 @@ def test_the_message_types_agree(wire_h):
     assert wire_h["types"] == {t.name: int(t) for t in MessageType}
 
 
-def test_the_link_facts_and_defaults_agree(client_h):
-    assert cpp_string(client_h["endpointFile"]) == protocol.ENDPOINT_NAME
-    assert cpp_string(client_h["tokenEnv"]) == protocol.TOKEN_ENV
-    assert float(client_h["connectTimeout"]) == protocol.CONNECT_TIMEOUT_S
-    assert float(client_h["replyTimeout"]) == protocol.REPLY_TIMEOUT_S
+def test_the_link_facts_and_defaults_agree(endpoint_h):
+    assert cpp_string(endpoint_h["endpointFile"]) == protocol.ENDPOINT_NAME
+    assert cpp_string(endpoint_h["tokenEnv"]) == protocol.TOKEN_ENV
+    assert float(endpoint_h["connectTimeout"]) == protocol.CONNECT_TIMEOUT_S
+    assert float(endpoint_h["replyTimeout"]) == protocol.REPLY_TIMEOUT_S
 
 
 def test_no_other_literal_of_the_shared_facts_in_the_plugin():
-    """The plugin writes each shared fact once: in stepServerWire.H / stepServerClient.H."""
+    """The plugin writes each shared fact once: in stepServerWire.H / stepServerEndpoint.H."""
     facts = {protocol.ENDPOINT_NAME, protocol.TOKEN_ENV, protocol.SOCKET_NAME,
              protocol.MAGIC.decode()}
     found = []
     for path in sorted(PLUGIN_SRC.glob("*.[CH]")):
         code = _strip_comments(path.read_text())
         found += [f"{path.name}: {f}" for f in facts
-                  if f'"{f}"' in code and path.name not in (WIRE_H, CLIENT_H)]
+                  if f'"{f}"' in code and path.name not in (WIRE_H, ENDPOINT_H)]
     assert found == []
 
 

@@ -1,10 +1,10 @@
 /*---------------------------------------------------------------------------*\
-    stepServerClient, the socket stream: where to connect, connecting with
-    retries, sending and receiving bytes with the reply timeout
+    stepServerStream, the socket stream: connecting with retries, sending
+    and receiving bytes with the reply timeout
     (docs/protocol.md, docs/openfoam-plugin.md)
 \*---------------------------------------------------------------------------*/
 
-#include "stepServerClient.H"
+#include "stepServerStream.H"
 
 #include <algorithm>
 #include <arpa/inet.h>
@@ -12,7 +12,6 @@
 #include <chrono>
 #include <cstring>
 #include <fcntl.h>
-#include <fstream>
 #include <netdb.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -37,71 +36,6 @@ std::string errnoString(int e)
 }
 
 } // End anonymous namespace
-
-
-// * * * * * * * * * * * * * * * * Endpoint  * * * * * * * * * * * * * * * * //
-
-std::string Endpoint::describe() const
-{
-    if (port > 0)
-    {
-        std::ostringstream os;
-        os << "tcp://" << (host.find(':') != std::string::npos ? "[" + host + "]" : host)
-           << ':' << port;
-        return os.str();
-    }
-    if (!endpointFile.empty())
-    {
-        return "the endpoint in " + endpointFile;
-    }
-    return socketPath;
-}
-
-
-bool Endpoint::resolve(Endpoint& target, std::string& why) const
-{
-    target = *this;
-    if (port > 0 || endpointFile.empty())
-    {
-        return true;
-    }
-    // The server's endpoint file: "key value" lines, '#' comments;
-    // "host H" + "port P" for TCP, else "unix PATH"
-    std::ifstream is(endpointFile);
-    if (!is)
-    {
-        why = "no endpoint file " + endpointFile + " (the server writes it "
-              "when it is ready)";
-        return false;
-    }
-    std::string line, h, u;
-    long p = 0;
-    while (std::getline(is, line))
-    {
-        std::istringstream ls(line);
-        std::string key, value;
-        if (!(ls >> key >> value) || key[0] == '#') continue;
-        if (key == "host") h = value;
-        else if (key == "port") p = std::strtol(value.c_str(), nullptr, 10);
-        else if (key == "unix") u = value;
-    }
-    target.endpointFile.clear();
-    if (!h.empty() && p > 0 && p < 65536)
-    {
-        target.host = h;
-        target.port = int(p);
-        return true;
-    }
-    if (!u.empty())
-    {
-        target.port = 0;
-        target.socketPath = u;
-        return true;
-    }
-    why = "endpoint file " + endpointFile + " names neither host and port "
-          "nor a unix socket";
-    return false;
-}
 
 
 // * * * * * * * * * * * * * * * Socket stream * * * * * * * * * * * * * * //
@@ -224,7 +158,23 @@ int connectUnix(const std::string& path, std::string& why)
 } // End anonymous namespace
 
 
-int stepServerClient::tryConnectOnce(std::string& why)
+// * * * * * * * * * * * * * * * Constructors  * * * * * * * * * * * * * * * //
+
+stepServerStream::stepServerStream(const Endpoint& ep)
+:
+    endpoint_(ep)
+{}
+
+
+stepServerStream::~stepServerStream()
+{
+    close();
+}
+
+
+// * * * * * * * * * * * * * * * Member Functions  * * * * * * * * * * * * * //
+
+int stepServerStream::tryConnectOnce(std::string& why)
 {
     Endpoint target;
     if (!endpoint_.resolve(target, why))
@@ -238,7 +188,41 @@ int stepServerClient::tryConnectOnce(std::string& why)
 }
 
 
-void stepServerClient::sendAll(const std::vector<unsigned char>& buf)
+void stepServerStream::connect()
+{
+    if (fd_ >= 0) return;
+
+    const auto start = Clock::now();
+    std::string why;
+    int attempts = 0;
+    while (true)
+    {
+        ++attempts;
+        fd_ = tryConnectOnce(why);
+        if (fd_ >= 0)
+        {
+            return;
+        }
+        const double waited =
+            std::chrono::duration<double>(Clock::now() - start).count();
+        if (waited >= endpoint_.connectTimeout)
+        {
+            break;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+
+    std::ostringstream os;
+    os << "cannot connect to the step-server at " << endpoint_.describe()
+       << (connectedTo_.empty() || connectedTo_ == endpoint_.describe()
+           ? std::string() : " (" + connectedTo_ + ")")
+       << " (" << why << ", " << attempts << " attempts in "
+       << endpoint_.connectTimeout << " s)";
+    throw stepServerError(os.str());
+}
+
+
+void stepServerStream::sendAll(const std::vector<unsigned char>& buf)
 {
     std::size_t done = 0;
     while (done < buf.size())
@@ -254,7 +238,7 @@ void stepServerClient::sendAll(const std::vector<unsigned char>& buf)
 }
 
 
-void stepServerClient::recvAll(unsigned char* buf, std::size_t n)
+void stepServerStream::recvAll(unsigned char* buf, std::size_t n)
 {
     const auto deadline =
         Clock::now()
@@ -301,42 +285,14 @@ void stepServerClient::recvAll(unsigned char* buf, std::size_t n)
 }
 
 
-void stepServerClient::connect()
+void stepServerStream::fail(const std::string& msg)
 {
-    if (fd_ >= 0) return;
-
-    const auto start = Clock::now();
-    std::string why;
-    int attempts = 0;
-    while (true)
-    {
-        ++attempts;
-        fd_ = tryConnectOnce(why);
-        if (fd_ >= 0)
-        {
-            seq_ = 0;
-            return;
-        }
-        const double waited =
-            std::chrono::duration<double>(Clock::now() - start).count();
-        if (waited >= endpoint_.connectTimeout)
-        {
-            break;
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    }
-
-    std::ostringstream os;
-    os << "cannot connect to the step-server at " << endpoint_.describe()
-       << (connectedTo_.empty() || connectedTo_ == endpoint_.describe()
-           ? std::string() : " (" + connectedTo_ + ")")
-       << " (" << why << ", " << attempts << " attempts in "
-       << endpoint_.connectTimeout << " s)";
-    throw stepServerError(os.str());
+    close();
+    throw stepServerError(msg + " (server " + endpoint_.describe() + ")");
 }
 
 
-void stepServerClient::close() noexcept
+void stepServerStream::close() noexcept
 {
     if (fd_ >= 0)
     {

@@ -7,10 +7,10 @@
 #include "pointKdTree.H"
 #include "addToRunTimeSelectionTable.H"
 #include "pointConstraints.H"
+#include "valuePointPatchField.H"
 #include "mapPolyMesh.H"
 #include "Pstream.H"
 #include <algorithm>
-#include <numeric>
 
 namespace Foam
 {
@@ -27,17 +27,6 @@ namespace Foam
         whaleBlendedDisplacementMotionSolver,
         displacement
     );
-}
-
-
-namespace
-{
-    //- Quintic smoothstep: 0 at s <= 0, 1 at s >= 1, C2
-    Foam::scalar smoothstep5(Foam::scalar s)
-    {
-        s = std::min(std::max(s, Foam::scalar(0)), Foam::scalar(1));
-        return s*s*s*(10 - 15*s + 6*s*s);
-    }
 }
 
 
@@ -85,70 +74,9 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
     const labelList& meshPoints = pp.meshPoints();
     const pointField& p0 = points0();
 
-    // Every rank's patch points, undeformed
-    List<pointField> allPts(Pstream::nProcs());
-    allPts[Pstream::myProcNo()] = pointField(p0, meshPoints);
-    Pstream::gatherList(allPts);
-    Pstream::scatterList(allPts);
+    patchPoints_.reset(new mergedPatchPoints(pointField(p0, meshPoints)));
 
-    label nAll = 0;
-    forAll(allPts, proci)
-    {
-        nAll += allPts[proci].size();
-    }
-    pointField all(nAll);
-    {
-        label k = 0;
-        forAll(allPts, proci)
-        {
-            for (const point& x : allPts[proci])
-            {
-                all[k++] = x;
-            }
-        }
-    }
-
-    // Sort lexicographically, merge exact duplicates: independent of the
-    // decomposition
-    labelList order(nAll);
-    std::iota(order.begin(), order.end(), 0);
-    auto less = [&all](label a, label b)
-    {
-        const point& pa = all[a];
-        const point& pb = all[b];
-        if (pa.x() != pb.x()) return pa.x() < pb.x();
-        if (pa.y() != pb.y()) return pa.y() < pb.y();
-        return pa.z() < pb.z();
-    };
-    std::stable_sort(order.begin(), order.end(), less);
-
-    labelList slotOf(nAll);
-    DynamicList<point> merged(nAll);
-    forAll(order, i)
-    {
-        const label a = order[i];
-        if (i == 0 || all[a] != all[order[i - 1]])
-        {
-            merged.append(all[a]);
-        }
-        slotOf[a] = merged.size() - 1;
-    }
-    patchPoints0_.transfer(merged);
-
-    slots_.setSize(Pstream::nProcs());
-    {
-        label k = 0;
-        forAll(allPts, proci)
-        {
-            slots_[proci].setSize(allPts[proci].size());
-            forAll(allPts[proci], i)
-            {
-                slots_[proci][i] = slotOf[k++];
-            }
-        }
-    }
-
-    const pointKdTree tree(patchPoints0_);
+    const pointKdTree tree(patchPoints_->points());
     const label K = std::min(nNeighbours_, tree.size() - 1);
     if (K < 1)
     {
@@ -158,114 +86,44 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
     }
 
     // Blend weights of every mesh point off the patch within outerDistance
-    boolList onPatch(p0.size(), false);
-    UIndirectList<bool>(onPatch, meshPoints) = true;
-
-    DynamicList<label> blendPoints(p0.size());
-    DynamicList<label> offsets(p0.size() + 1);
-    DynamicList<label> sources(p0.size()*K);
-    DynamicList<scalar> weights(p0.size()*K);
-    DynamicList<scalar> psi(p0.size());
-    offsets.append(0);
-
-    std::vector<std::pair<scalar, label>> nearest;
-    const scalar R2 = sqr(outerDistance_);
-    std::vector<scalar> w(K + 1);
-
-    forAll(p0, pointi)
-    {
-        if (onPatch[pointi])
-        {
-            continue;
-        }
-        tree.knn(p0[pointi], K + 1, nearest);
-        const scalar r1sqr = nearest[0].first;
-        if (r1sqr >= R2)
-        {
-            continue;
-        }
-        const scalar r1 = Foam::sqrt(r1sqr);
-        const scalar phi = smoothstep5
+    weights_.reset
+    (
+        new patchBlendWeights
         (
-            (outerDistance_ - r1)/(outerDistance_ - innerDistance_)
-        );
-        if (phi <= 0)
-        {
-            continue;
-        }
-
-        const scalar rLast = Foam::sqrt(nearest[K].first);
-        const scalar cut = Foam::pow(rLast, -power_);
-        scalar sumW = 0;
-        for (label j = 0; j < K; ++j)
-        {
-            const scalar r = Foam::sqrt(nearest[j].first);
-            w[j] = (r > 0 ? Foam::pow(r, -power_) - cut : GREAT);
-            sumW += w[j];
-        }
-        if (!(sumW > 0))
-        {
-            // All K + 1 equally far: plain average
-            for (label j = 0; j < K; ++j)
-            {
-                w[j] = 1;
-            }
-            sumW = K;
-        }
-
-        blendPoints.append(pointi);
-        for (label j = 0; j < K; ++j)
-        {
-            if (w[j] > 0)
-            {
-                sources.append(nearest[j].second);
-                weights.append(phi*w[j]/sumW);
-            }
-        }
-        offsets.append(sources.size());
-        psi.append
-        (
-            smoothstep5
-            (
-                (rotationDistance_ - r1)/(rotationDistance_ - innerDistance_)
-            )
-        );
-    }
-
-    blendPoints_.transfer(blendPoints);
-    offsets_.transfer(offsets);
-    sources_.transfer(sources);
-    weights_.transfer(weights);
-    psi_.transfer(psi);
+            p0, meshPoints, tree, K, power_, innerDistance_, outerDistance_,
+            rotationDistance_
+        )
+    );
 
     if (rotation_)
     {
-        // Each patch point's K nearest patch points (itself excluded)
-        nbrOffsets_.setSize(tree.size() + 1);
-        DynamicList<label> nbrs(tree.size()*K);
-        nbrOffsets_[0] = 0;
-        forAll(patchPoints0_, i)
-        {
-            tree.knn(patchPoints0_[i], K + 1, nearest);
-            for (const auto& n : nearest)
-            {
-                if (n.second != i)
-                {
-                    nbrs.append(n.second);
-                }
-            }
-            nbrOffsets_[i + 1] = nbrs.size();
-        }
-        nbrs_.transfer(nbrs);
+        rotations_.reset(new patchPointRotations(tree, K));
     }
 
     Info<< typeName << ": patch " << pp.name() << " "
-        << patchPoints0_.size() << " points (merged from " << nAll
-        << " over " << Pstream::nProcs() << " rank(s)); "
-        << returnReduce(blendPoints_.size(), sumOp<label>())
+        << patchPoints_->points().size() << " points (merged from "
+        << patchPoints_->nGathered() << " over " << Pstream::nProcs()
+        << " rank(s)); "
+        << returnReduce(weights_->size(), sumOp<label>())
         << " mesh points blended (K " << K << ", power " << power_
         << ", innerDistance " << innerDistance_ << ", outerDistance "
         << outerDistance_ << ", rotation " << rotation_ << ")" << endl;
+}
+
+
+Foam::tmp<Foam::vectorField>
+Foam::whaleBlendedDisplacementMotionSolver::mergedPatchDisplacement() const
+{
+    const pointPatchVectorField& ppf = pointDisplacement_.boundaryField()[patchi_];
+    if (!isA<valuePointPatchField<vector>>(ppf))
+    {
+        FatalErrorInFunction
+            << "pointDisplacement on patch " << ppf.patch().name()
+            << " is " << ppf.type() << ": whaleBlendedDisplacement needs a"
+            << " fixed-value kind of condition (e.g. stepServerDisplacement)"
+            << exit(FatalError);
+    }
+    return patchPoints_->merge(refCast<const valuePointPatchField<vector>>(ppf));
 }
 
 
@@ -326,33 +184,15 @@ void Foam::whaleBlendedDisplacementMotionSolver::solve()
 
     if (rotation_)
     {
-        const tensorField Rm(patchRotations(d));
-        const pointField& p0 = points0();
-        forAll(blendPoints_, i)
-        {
-            const label pointi = blendPoints_[i];
-            const point& x = p0[pointi];
-            vector sum(Zero);
-            for (label k = offsets_[i]; k < offsets_[i + 1]; ++k)
-            {
-                const label j = sources_[k];
-                sum += weights_[k]
-                   *(d[j] + psi_[i]*((Rm[j] - I) & (x - patchPoints0_[j])));
-            }
-            pd[pointi] = sum;
-        }
+        const tensorField Rm
+        (
+            rotations_->rotations(patchPoints_->points(), d)
+        );
+        weights_->apply(d, Rm, points0(), patchPoints_->points(), pd);
     }
     else
     {
-        forAll(blendPoints_, i)
-        {
-            vector sum(Zero);
-            for (label k = offsets_[i]; k < offsets_[i + 1]; ++k)
-            {
-                sum += weights_[k]*d[sources_[k]];
-            }
-            pd[blendPoints_[i]] = sum;
-        }
+        weights_->apply(d, pd);
     }
 
     // The patch itself (evaluate() of its condition, no new request), the

@@ -31,9 +31,6 @@ namespace functionObjects
 
 namespace
 {
-    // Layout of the values of one patch, as summed over the ranks
-    enum : Foam::label { FP = 0, FV = 3, PP = 6, PV = 7, AREA = 8, NVALUES = 9 };
-
     // The columns of one group in loads.dat
     const char* const columns[] =
     {
@@ -41,45 +38,27 @@ namespace
         "P", "Pp", "Pv", "A"
     };
 
-    Foam::vector vectorAt(const Foam::scalarField& v, const Foam::label i)
-    {
-        return Foam::vector(v[i], v[i + 1], v[i + 2]);
-    }
+    // The layout of one group's values (class whaleLoadSums)
+    constexpr Foam::label FP = Foam::whaleLoadSums::FP;
+    constexpr Foam::label FV = Foam::whaleLoadSums::FV;
+    constexpr Foam::label PP = Foam::whaleLoadSums::PP;
+    constexpr Foam::label PV = Foam::whaleLoadSums::PV;
+    constexpr Foam::label AREA = Foam::whaleLoadSums::AREA;
 }
 
 
 // * * * * * * * * * * * * Private Member Functions  * * * * * * * * * * * * //
 
-Foam::label Foam::functionObjects::whaleLoads::nRegions() const
-{
-    return regionsPtr_.valid() ? regionsPtr_->names().size() : 0;
-}
-
-
 Foam::wordList Foam::functionObjects::whaleLoads::groupNames() const
 {
-    wordList groups;
-    for (const label patchi : patchIDs_)
-    {
-        groups.append(mesh_.boundaryMesh()[patchi].name());
-    }
-    for (const label patchi : patchIDs_)
-    {
-        for (label r = 0; r < nRegions(); ++r)
-        {
-            groups.append
-            (
-                mesh_.boundaryMesh()[patchi].name() + "."
-              + regionsPtr_->names()[r]
-            );
-        }
-    }
-    return groups;
+    return whaleLoadSums::groupNames
+    (
+        mesh_.boundaryMesh(), patchIDs_, regionsPtr_.get()
+    );
 }
 
 
-Foam::List<Foam::scalarField>
-Foam::functionObjects::whaleLoads::calcLoads() const
+Foam::whaleLoadSums Foam::functionObjects::whaleLoads::calcLoads() const
 {
     // Collective (devReff: grad(U) across processor patches)
     const patchLoads loads(mesh_, rhoInf_, pName_);
@@ -99,60 +78,7 @@ Foam::functionObjects::whaleLoads::calcLoads() const
             << exit(FatalError);
     }
 
-    const label nPatches = patchIDs_.size();
-    const label nR = nRegions();
-    List<scalarField> values
-    (
-        nPatches*(1 + nR),
-        scalarField(NVALUES, Zero)
-    );
-
-    forAll(patchIDs_, i)
-    {
-        const label patchi = patchIDs_[i];
-        const vectorField fp(loads.pressure(patchi));
-        const vectorField fv(loads.viscous(patchi));
-        const vectorField& Ub = UPtr->boundaryField()[patchi];
-        const scalarField& magSf = mesh_.magSf().boundaryField()[patchi];
-
-        const vector Fp(sum(fp));
-        const vector Fv(sum(fv));
-        scalarField& v = values[i];
-        for (direction d = 0; d < vector::nComponents; ++d)
-        {
-            v[FP + d] = Fp[d];
-            v[FV + d] = Fv[d];
-        }
-
-        // Face-wise: the fluid's force on the face times the face velocity,
-        // negated: the power the body delivers to the fluid
-        v[PP] = -sum(fp & Ub);
-        v[PV] = -sum(fv & Ub);
-        v[AREA] = sum(magSf);
-
-        // The same sums over the faces of each region
-        if (nR)
-        {
-            const labelList& regions = regionsPtr_->faceRegions(i);
-            forAll(regions, facei)
-            {
-                scalarField& w = values[nPatches + i*nR + regions[facei]];
-                for (direction d = 0; d < vector::nComponents; ++d)
-                {
-                    w[FP + d] += fp[facei][d];
-                    w[FV + d] += fv[facei][d];
-                }
-                w[PP] -= fp[facei] & Ub[facei];
-                w[PV] -= fv[facei] & Ub[facei];
-                w[AREA] += magSf[facei];
-            }
-        }
-    }
-
-    Pstream::listCombineGather(values, plusEqOp<scalarField>());
-    Pstream::listCombineScatter(values);
-
-    return values;
+    return whaleLoadSums(loads, *UPtr, patchIDs_, regionsPtr_.get());
 }
 
 
@@ -190,8 +116,8 @@ void Foam::functionObjects::whaleLoads::writeGroup
     const scalarField& v
 )
 {
-    const vector Fp(vectorAt(v, FP));
-    const vector Fv(vectorAt(v, FV));
+    const vector Fp(whaleLoadSums::vectorAt(v, FP));
+    const vector Fv(whaleLoadSums::vectorAt(v, FV));
     const vector F(Fp + Fv);
     const scalar P = v[PP] + v[PV];
 
@@ -310,14 +236,10 @@ bool Foam::functionObjects::whaleLoads::execute()
             << " m from " << regionsFile_ << endl;
     }
 
-    const List<scalarField> values(calcLoads());
+    const whaleLoadSums sums(calcLoads());
+    const List<scalarField>& values = sums.groups();
+    const scalarField& total = sums.total();
     const wordList groups(groupNames());
-
-    scalarField total(NVALUES, Zero);
-    forAll(patchIDs_, i)
-    {
-        total += values[i];
-    }
 
     if (Pstream::master())
     {
@@ -340,7 +262,11 @@ bool Foam::functionObjects::whaleLoads::execute()
     }
 
     setResult("power", total[PP] + total[PV]);
-    setResult("force", vectorAt(total, FP) + vectorAt(total, FV));
+    setResult
+    (
+        "force",
+        whaleLoadSums::vectorAt(total, FP) + whaleLoadSums::vectorAt(total, FV)
+    );
 
     return true;
 }

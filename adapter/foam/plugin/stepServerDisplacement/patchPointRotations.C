@@ -1,18 +1,14 @@
 /*---------------------------------------------------------------------------*\
-    whale-adapter: whaleBlendedDisplacement, the patch's displacement
-    gathered from all ranks, and the local rotation of every patch point
-    (option `rotation yes`).
+    whale-adapter: the local rotation of every patch point
+    (see patchPointRotations.H).
 
-    The rotation R_j of patch point j is the least-squares rotation taking
-    the vectors to its K nearest patch points, a_k = x_k - x_j (undeformed),
-    to the same vectors displaced, b_k = a_k + d_k - d_j: Horn's quaternion
-    method (J. Opt. Soc. Am. A 4 (1987) 629), the unit eigenvector of the
-    largest eigenvalue of a symmetric 4x4 matrix, found by cyclic Jacobi.
-    Exact for a rigid motion of the neighbourhood.
+    The rotation is the unit eigenvector of the largest eigenvalue of a
+    symmetric 4x4 matrix (Horn's quaternion), found by cyclic Jacobi.
 \*---------------------------------------------------------------------------*/
 
-#include "whaleBlendedDisplacementMotionSolver.H"
-#include "valuePointPatchField.H"
+#include "patchPointRotations.H"
+#include "pointKdTree.H"
+#include "DynamicList.H"
 #include <cmath>
 
 namespace
@@ -98,63 +94,54 @@ void largestEigenvector4(double a[4][4], double q[4])
 } // End anonymous namespace
 
 
-Foam::tmp<Foam::vectorField>
-Foam::whaleBlendedDisplacementMotionSolver::mergedPatchDisplacement() const
+// * * * * * * * * * * * * * * * * Constructors  * * * * * * * * * * * * * * //
+
+Foam::patchPointRotations::patchPointRotations
+(
+    const pointKdTree& tree,
+    const label K
+)
 {
-    const pointPatchVectorField& ppf = pointDisplacement_.boundaryField()[patchi_];
-    if (!isA<valuePointPatchField<vector>>(ppf))
+    // Each patch point's K nearest patch points (itself excluded)
+    std::vector<std::pair<scalar, label>> nearest;
+    nbrOffsets_.setSize(tree.size() + 1);
+    DynamicList<label> nbrs(tree.size()*K);
+    nbrOffsets_[0] = 0;
+    forAll(tree.points(), i)
     {
-        FatalErrorInFunction
-            << "pointDisplacement on patch " << ppf.patch().name()
-            << " is " << ppf.type() << ": whaleBlendedDisplacement needs a"
-            << " fixed-value kind of condition (e.g. stepServerDisplacement)"
-            << exit(FatalError);
-    }
-    const vectorField& mine = refCast<const valuePointPatchField<vector>>(ppf);
-
-    List<vectorField> allD(Pstream::nProcs());
-    allD[Pstream::myProcNo()] = mine;
-    Pstream::gatherList(allD);
-    Pstream::scatterList(allD);
-
-    tmp<vectorField> td(new vectorField(patchPoints0_.size(), Zero));
-    vectorField& d = td.ref();
-    forAll(allD, proci)
-    {
-        const labelList& slots = slots_[proci];
-        if (allD[proci].size() != slots.size())
+        tree.knn(tree.points()[i], K + 1, nearest);
+        for (const auto& n : nearest)
         {
-            FatalErrorInFunction
-                << "rank " << proci << " sent " << allD[proci].size()
-                << " patch displacements, expected " << slots.size()
-                << exit(FatalError);
+            if (n.second != i)
+            {
+                nbrs.append(n.second);
+            }
         }
-        forAll(slots, i)
-        {
-            d[slots[i]] = allD[proci][i];
-        }
+        nbrOffsets_[i + 1] = nbrs.size();
     }
-    return td;
+    nbrs_.transfer(nbrs);
 }
 
 
-Foam::tmp<Foam::tensorField>
-Foam::whaleBlendedDisplacementMotionSolver::patchRotations
+// * * * * * * * * * * * * * * * Member Functions  * * * * * * * * * * * * * //
+
+Foam::tmp<Foam::tensorField> Foam::patchPointRotations::rotations
 (
+    const pointField& patchPoints0,
     const vectorField& d
 ) const
 {
-    tmp<tensorField> tR(new tensorField(patchPoints0_.size(), I));
+    tmp<tensorField> tR(new tensorField(patchPoints0.size(), I));
     tensorField& Rm = tR.ref();
 
-    forAll(patchPoints0_, j)
+    forAll(patchPoints0, j)
     {
         // S = sum a b^T
         tensor S(Zero);
         for (label k = nbrOffsets_[j]; k < nbrOffsets_[j + 1]; ++k)
         {
             const label n = nbrs_[k];
-            const vector a(patchPoints0_[n] - patchPoints0_[j]);
+            const vector a(patchPoints0[n] - patchPoints0[j]);
             const vector b(a + d[n] - d[j]);
             S += a*b;
         }
