@@ -1,8 +1,9 @@
 """The OpenFOAM case: numbers, dictionaries, log parsing; meshing and a static run with OpenFOAM.
 
 Tests marked ``openfoam`` run the real blockMesh/snappyHexMesh/checkMesh/pimpleFoam and are
-skipped when pimpleFoam is not on PATH. None of them needs the plugin or the step-server: the
-runs here use ``static_whale=True`` (tests/test_coupled.py covers the coupled run).
+skipped when pimpleFoam is not on PATH. None of them needs the step-server: the runs here use
+``static_whale=True`` (tests/test_coupled.py covers the coupled run); one needs the plugin's
+mesh motion (its check stopping a run before the mesh inverts).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import shutil
 import meshio
 import numpy as np
 import pytest
+from PyFoam.Basics.DataStructures import Field, Vector
 from PyFoam.RunDictionary.ParsedParameterFile import ParsedParameterFile
 
 from adapter.body.geometry import build_surface
@@ -369,6 +371,32 @@ FOAM parallel run exiting
     assert LG.fatal_error("Time = 1\nExecutionTime = 2 s\n") is None
 
 
+def test_the_motion_checks_fatal_error_is_recognised(tmp_path):
+    log = "\n".join([
+        "Time = 0.046875", "", "PIMPLE: iteration 1", "", "",
+        "--> FOAM FATAL ERROR: ",
+        "whaleBlendedDisplacement: the mesh at t = 0.046875 s would be invalid (face pyramids: "
+        "2 faces incorrectly oriented); stopped before moving it",
+        "    face pyramids: 2 faces incorrectly oriented: the worst -1.9e-06 m3 (pyramid volume),"
+        " face centre at (-0.15 0.91 0.05) m",
+        "The mesh of the latest written time, t = 0.03125 s, is valid: every mesh this run moved"
+        " to passed this check (checkMesh -time 0.03125).", "",
+        "    From function void Foam::meshMotionCheck::check(const Foam::pointField&)", ""])
+    assert LG.motion_check_stop(LG.fatal_error(log)) == (
+        0.046875, "face pyramids: 2 faces incorrectly oriented")
+    assert LG.motion_check_stop(LG.fatal_error(log.replace("would be", "will be"))) is None
+    assert LG.motion_check_stop(None) is None
+    # the step the check stopped in never ran: the run ends at the one before
+    watch = LG.LogWatch(tmp_path / "log.pimpleFoam")
+    for line in ("Time = 0.015625", "ExecutionTime = 0.02 s", "Time = 0.03125",
+                 "ExecutionTime = 0.03 s", "Time = 0.046875"):
+        watch.feed(line)
+    watch.drop_unfinished_step()
+    assert watch.times == [0.015625, 0.03125] and len(watch.seen) == 2
+    watch.drop_unfinished_step()
+    assert watch.times == [0.015625, 0.03125]
+
+
 def test_format_summary_is_a_table_of_the_rows_present():
     summary = {"case": "/tmp/c", "preset": "smoke", "static_whale": False, "cells": 4303,
                "steps": 8, "end_time_s": 0.383, "adapter_s_per_step": 0.0125, "drag_N": None,
@@ -484,3 +512,40 @@ def test_a_smaller_animal_meshes_and_runs_on_the_smoke_preset(tmp_path, smoke_su
     assert info["whale_faces"] > 50
     summary = R.run_case(case, progress=False)
     assert summary["steps"] == C.read_record(case)["parameters"]["n_steps"]
+
+
+@pytest.mark.openfoam
+@pytest.mark.slow
+@needs_openfoam
+@pytest.mark.skipif(not C.PLUGIN_LIB.is_file(), reason=f"the library {C.PLUGIN_LIB} is not built")
+def test_run_case_stops_before_the_mesh_inverts(tmp_path, smoke_mesh):
+    src, _ = smoke_mesh
+    case = tmp_path / "case"
+    shutil.copytree(src, case)
+    # the whale lifted at 30 m/s by OpenFOAM's oscillatingDisplacement (omega 1: 30 sin t m, no
+    # step-server): the blended mesh between the whale and outerDistance (10 m) folds at step 4
+    # (5.7 m), before the first write after 0 (every 4 steps)
+    for folder in ("0", "0.orig"):
+        d = ParsedParameterFile(str(case / folder / "pointDisplacement"))
+        d["boundaryField"]["whale"] = {"type": "oscillatingDisplacement",
+                                       "amplitude": Vector(0, 0, 30), "omega": 1,
+                                       "value": Field(Vector(0, 0, 0))}
+        d.writeFile()
+    control = ParsedParameterFile(str(case / "system" / "controlDict"))
+    control["libs"] = ['"libfvMotionSolvers.so"', *control["libs"]]
+    control.writeFile()
+    assert "checkMotion yes" in (case / "constant" / "dynamicMeshDict").read_text()
+    dt = C.read_record(case)["parameters"]["delta_t"]
+    with pytest.raises(SolverRunError) as err:
+        R.run_case(case, progress=False)
+    message = str(err.value)
+    stopped = (f"mesh watch: the mesh at t = {4 * dt:.12g} s would be invalid (cell volumes: ")
+    assert message.startswith(stopped)
+    assert "; stopped before moving it; the last written time 0 s is valid; see " in message
+    assert "What to do: " in message and "fluke_angle_scale" in message
+    assert "centre at (" in message                        # OpenFOAM's message, the places
+    summary = json.loads((case / S.SUMMARY).read_text())
+    assert summary["stopped"].startswith(stopped)
+    assert summary["stopped"] in message
+    assert summary["steps"] == 3 and summary["end_time_s"] == pytest.approx(3 * dt)
+    assert [t for t, _ in F.time_dirs(case)] == [0]      # nothing invalid written

@@ -17,7 +17,12 @@ plugin library. Checked:
   (the cells shear);
 - a restart from an odd written step (``startFrom latestTime``) reproduces the points and U of
   an uninterrupted run to 1e-9, serially and on two MPI ranks; the two ranks' mesh equals the
-  serial one (the motion does not depend on the decomposition).
+  serial one (the motion does not depend on the decomposition);
+- the motion check (``checkMotion``, on by default): a translation large enough to invert cells
+  at a known step (without the check OpenFOAM's own mesh check, ``-debug-switch polyMesh=1`` as
+  run-case uses it, reports the first invalid mesh there) stops the run with a FatalError at
+  that step, before the mesh moves, serially and on two ranks alike; the last written time is
+  the step before and its mesh passes checkMesh.
 
 Skipped without pimpleFoam or without the built library (scripts/build_plugin.sh).
 """
@@ -29,7 +34,9 @@ import shutil
 import numpy as np
 import pytest
 
+from adapter.errors import SolverRunError
 from adapter.foam import case as C
+from adapter.foam import logs as LG
 from adapter.foam import tools as T
 from adapter.foam.yplus import read_boundary, read_faces, read_points
 
@@ -55,6 +62,10 @@ AMPLITUDE = (0.12, 0.07, 0.0)        # m, oscillatingDisplacement
 ANGLE = 0.4                          # rad, angularOscillatingDisplacement amplitude
 OMEGA = 12.0                         # rad/s, both
 INNER, OUTER, ROT = 0.06, 1.0, 0.4   # innerDistance, outerDistance, rotationDistance (m)
+#: a translation that inverts cells: 0.37 m at step 2 is fine, 0.53 m at step 3 folds the cells
+#: between the wall and outerDistance (measured: 15 cells of negative volume)
+INVERTING = (0.0, 1.0, 0.0)
+INVERTED_STEP = 3
 
 _XS, _NX, _GX = (-1.5, -0.25, 0.25, 3.0), (10, 8, 16), (0.03, 1, 30)
 _YS, _NY, _GY = (-1.5, -0.25, 0.25, 1.5), (10, 8, 10), (0.03, 1, 30)
@@ -87,15 +98,15 @@ def _block_mesh_dict() -> str:
             + f"edges ();\nboundary (\n{boundary}\n);\nmergePatchPairs ();\n")
 
 
-def _whale_bc(motion: str) -> str:
+def _whale_bc(motion: str, amplitude=AMPLITUDE) -> str:
     if motion == "translate":
         return ("type oscillatingDisplacement; amplitude ({} {} {}); omega {};"
-                " value uniform (0 0 0);".format(*AMPLITUDE, OMEGA))
+                " value uniform (0 0 0);".format(*amplitude, OMEGA))
     return (f"type angularOscillatingDisplacement; axis (0 0 1); origin (0 0 0); angle0 0;"
             f" amplitude {ANGLE}; omega {OMEGA}; value uniform (0 0 0);")
 
 
-def _files(motion: str, rotation: bool, lib) -> dict:
+def _files(motion: str, rotation: bool, lib, amplitude=AMPLITUDE, check: str = "") -> dict:
     return {
         "system/controlDict": ("dictionary", f"""
 libs ("{lib}" "libfvMotionSolvers.so");
@@ -117,7 +128,7 @@ whaleBlendedDisplacementCoeffs
 {{
     patch whale; nNeighbours 8; power 3;
     innerDistance {INNER}; outerDistance {OUTER};
-    rotation {'yes' if rotation else 'no'}; rotationDistance {ROT};
+    rotation {'yes' if rotation else 'no'}; rotationDistance {ROT}; {check}
 }}
 """),
         **flow_files("whale"),
@@ -128,15 +139,18 @@ boundaryField
     inlet {{ type fixedValue; value uniform (0 0 0); }}
     outlet {{ type fixedValue; value uniform (0 0 0); }}
     walls {{ type slip; }}
-    whale {{ {_whale_bc(motion)} }}
+    whale {{ {_whale_bc(motion, amplitude)} }}
     frontAndBack {{ type empty; }}
 }}
 """),
     }
 
 
-def make_case(case, motion: str, rotation: bool, lib=C.PLUGIN_LIB) -> None:
-    write_files(case, _files(motion, rotation, lib))
+def make_case(case, motion: str, rotation: bool, lib=C.PLUGIN_LIB, amplitude=AMPLITUDE,
+              check: str = "") -> None:
+    """The channel case; ``check`` an extra entry of the motion solver's coefficients (e.g.
+    ``checkMotion no;``)."""
+    write_files(case, _files(motion, rotation, lib, amplitude, check))
     (case / "system" / "blockMeshDict").write_text(_block_mesh_dict())
 
 
@@ -272,3 +286,70 @@ def test_restart_from_an_odd_step_reproduces_the_mesh_and_flow(tmp_path_factory,
         np.testing.assert_allclose(read_points(straight / t / "polyMesh" / "points"),
                                    read_points(serial / t / "polyMesh" / "points"),
                                    rtol=0, atol=1e-12)
+
+
+def _first_invalid_time(log_text: str) -> str | None:
+    """The first ``Time =`` whose moved mesh OpenFOAM's own check (polyMesh debug) found
+    invalid."""
+    t = None
+    for line in log_text.splitlines():
+        if line.startswith("Time = "):
+            t = line.split()[-1]
+        elif "***" in line:
+            return t
+    return None
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_the_motion_check_stops_the_run_before_the_mesh_inverts(tmp_path, ranks):
+    if ranks > 1 and shutil.which("mpirun") is None:
+        pytest.skip("mpirun is not on PATH")
+    solver = ["pimpleFoam", "-debug-switch", "polyMesh=1"]         # as run-case runs it
+    # without the check: the first step with an invalid mesh, moved into and computed on
+    off = tmp_path / "off"
+    make_case(off, "translate", False, amplitude=INVERTING, check="checkMotion no;")
+    T.run_utility(off, ["blockMesh"])
+    T.run_utility(off, solver, log_name="pimpleFoam")
+    invalid = _first_invalid_time((off / "log.pimpleFoam").read_text())
+    assert invalid == _tname(INVERTED_STEP)
+    assert (off / invalid / "polyMesh" / "points").is_file()
+
+    # with the check (the default): stopped at that step's mesh update, before moving
+    on = tmp_path / "on"
+    make_case(on, "translate", False, amplitude=INVERTING)
+    T.run_utility(on, ["blockMesh"])
+    if ranks > 1:
+        T.run_utility(on, ["decomposePar"])
+        solver = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", "2", *solver,
+                  "-parallel"]
+    with pytest.raises(SolverRunError, match="failed"):
+        T.run_utility(on, solver, log_name="pimpleFoam")
+    log = (on / "log.pimpleFoam").read_text()
+    assert "***" not in log                                        # never moved into it
+    fatal = LG.fatal_error(log)
+    stop = LG.motion_check_stop(fatal)
+    assert stop is not None, fatal
+    t, what = stop
+    assert t == float(invalid)
+    # what OpenFOAM's own check says of that mesh, counted alike (over both ranks)
+    assert "cell volumes: 15 cells of zero or negative volume" in what
+    assert "face pyramids: 91 faces incorrectly oriented" in what
+    written = _tname(INVERTED_STEP - 1)
+    assert f"The mesh of the latest written time, t = {written} s, is valid" in fatal
+    assert "centre at (" in fatal and "What to do:" in fatal
+    folders = [on] if ranks == 1 else sorted(on.glob("processor*"))
+    for folder in folders:
+        times = sorted(float(d.name) for d in folder.iterdir() if _is_time(d.name))
+        assert times[-1] == float(written) < t
+    if ranks > 1:
+        T.run_utility(on, ["reconstructPar", "-latestTime"])
+    T.run_utility(on, ["checkMesh", "-time", written])
+    assert "Mesh OK." in (on / "log.checkMesh").read_text()
+
+
+def _is_time(name: str) -> bool:
+    try:
+        float(name)
+    except ValueError:
+        return False
+    return True

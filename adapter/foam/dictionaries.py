@@ -100,6 +100,8 @@ def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool,
         coeffs = d["whaleBlendedDisplacementCoeffs"]
         coeffs["innerDistance"] = p.motion_inner_m
         coeffs["outerDistance"] = p.motion_outer_m
+        # the new points checked before the mesh moves: an invalid mesh stops the run first
+        coeffs["checkMotion"] = "yes"
     else:
         # the Laplacian (also for a flow-only case without the plugin library)
         d["motionSolver"] = "displacementLaplacian"

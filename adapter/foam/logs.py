@@ -5,7 +5,9 @@ plugin's timing); :class:`Progress` shows it as one line.
 Mesh watch: pimpleFoam runs with ``-debug-switch polyMesh=1``, which makes OpenFOAM v1912's
 ``polyMesh::movePoints`` check every new mesh (``checkMeshMotion``) and print the smallest cell
 volume and the largest face non-orthogonality of every step, in the same words as checkMesh
-(:data:`NON_ORTHOGONALITY_RE` reads both). See docs/case.md.
+(:data:`NON_ORTHOGONALITY_RE` reads both). The blended mesh motion checks the new points itself
+before the mesh moves and stops the run with a FatalError when they would make an invalid mesh;
+:func:`motion_check_stop` reads it. See docs/case.md.
 """
 
 from __future__ import annotations
@@ -25,6 +27,9 @@ _COURANT_RE = re.compile(r"^Courant Number mean: \S+ max: ([-+0-9.eE]+)")
 _PLUGIN_RE = re.compile(r"stepServer: ([0-9]+) requests, mean ([0-9.]+) us per exchange\s*$")
 _BROKEN_RE = re.compile(r"\*\*\*(Zero or negative cell volume|Error in face pyramids"
                         r"|Number of non-orthogonality errors)")
+#: the first line of whaleBlendedDisplacement's FatalError (the plugin's meshMotionCheck.C)
+_MOTION_CHECK_RE = re.compile(r"the mesh at t = (\S+) s would be invalid \((.*)\); "
+                              r"stopped before moving it")
 
 
 def parse_check_mesh(text: str) -> dict:
@@ -67,6 +72,15 @@ def fatal_error(log_text: str) -> str | None:
                 out.append(text)
         return "\n".join(out) if out else None
     return None
+
+
+def motion_check_stop(fatal: str | None) -> tuple | None:
+    """``(t, what)`` when OpenFOAM's fatal error (:func:`fatal_error`) is the mesh motion's
+    check: the mesh at time ``t`` (s) would have been invalid, ``what`` says how
+    (e.g. ``face pyramids: 2 faces incorrectly oriented``), and the run stopped before moving
+    it. None for any other error."""
+    m = _MOTION_CHECK_RE.search(fatal or "")
+    return (float(m.group(1)), m.group(2)) if m else None
 
 
 class LogWatch:
@@ -126,6 +140,13 @@ class LogWatch:
             self.plugin = (int(m.group(1)), float(m.group(2)))
         if self.broken is None and _BROKEN_RE.search(line):
             self.broken = line.strip()
+
+    def drop_unfinished_step(self) -> None:
+        """Forget the last ``Time =`` when its step did not finish (no ``ExecutionTime`` after
+        it: the run stopped in it, e.g. at its mesh update)."""
+        if len(self.times) > len(self.exec_times):
+            self.times.pop()
+            self.seen.pop()
 
     def seconds_per_step(self) -> float:
         """Mean wall seconds per step, leaving out the first (start-up) step.

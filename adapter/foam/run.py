@@ -4,7 +4,10 @@ with a progress line and the mesh watch, and the summary written (:mod:`adapter.
 
 Mesh watch: when the non-orthogonality of the moved mesh passes ``case.max_non_orthogonality``
 the solver gets SIGUSR1, which ``-opt-switch stopAtWriteNowSignal=10`` turns into "write this
-step and stop", so the run ends on a written, still valid mesh. See docs/case.md.
+step and stop", so the run ends on a written, still valid mesh. The blended mesh motion
+(``whaleBlendedDisplacement``, ``checkMotion yes``) checks the new points before the mesh moves
+and stops the run with a FatalError when they would make an invalid mesh; that run ends with
+``stopped`` saying so and an error. See docs/case.md.
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ from adapter.foam.folders import (
     serial_latest,
     trim_processor_times,
 )
-from adapter.foam.logs import LogWatch, Progress, fatal_error
+from adapter.foam.logs import LogWatch, Progress, fatal_error, motion_check_stop
 from adapter.foam.mesh import mesh_case
 from adapter.foam.parallel import parallel_command
 from adapter.foam.stepserver import start_server, stop_server
@@ -41,6 +44,11 @@ from adapter.foam.tools import check_foam, foam_env, run_utility
 STOP_WHEN_STEPS = 10
 #: the signal pimpleFoam turns into "write now and stop" (-opt-switch stopAtWriteNowSignal)
 STOP_SIGNAL = signal.SIGUSR1
+#: what to do when the blended mesh motion's check stopped a run (docs/case.md, "Mesh watch")
+MOTION_ADVICE = ("make the whale's motion gentler where the mesh would fold (a smaller fluke "
+                 "pitch: [stroke] fluke_angle_scale), spread the mesh motion over more cells "
+                 "([case] motion_inner, motion_outer) or mesh that region differently "
+                 "(docs/case.md, 'Mesh watch')")
 
 
 def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
@@ -130,31 +138,51 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
         flow_wall = time.perf_counter() - t_flow
     finally:
         stop_server(server)
+    before = None
     if rc != 0:
-        what = stopped or f"pimpleFoam failed (exit code {rc})"
-        hint = f" ({watch.broken})" if watch.broken and not stopped else ""
-        fatal = None if stopped else fatal_error(
-            (case / "log.pimpleFoam").read_text(errors="replace"))
-        if fatal:
-            raise SolverRunError(f"{what}{hint}, with OpenFOAM's message:\n    "
-                                 + fatal.replace("\n", "\n    ")
-                                 + f"\n(see {case / 'log.pimpleFoam'}; run the same command again"
-                                 " to continue from the latest written time)")
-        raise SolverRunError(f"{what}{hint}; see {case / 'log.pimpleFoam'}")
+        fatal = fatal_error((case / "log.pimpleFoam").read_text(errors="replace"))
+        before = motion_check_stop(fatal)
+        if before is None:
+            _raise_failed(case, rc, stopped, watch, fatal)
+        # the mesh motion's own check stopped the run at a step's mesh update, before the
+        # mesh moved: that step never ran, every written time holds a valid mesh
+        watch.drop_unfinished_step()
     if ranks > 1 and settings["reconstruct"]:
         run_utility(case, ["reconstructPar", "-newTimes"])
     (case / "case.foam").touch()
     summary = summarise(case, watch, record, ranks, flow_wall, time.perf_counter() - t_start)
-    if stopped and not stopped.startswith("mesh watch"):
+    if before:
+        stopped = (f"mesh watch: the mesh at t = {before[0]:.12g} s would be invalid "
+                   f"({before[1]}); stopped before moving it; the last written time "
+                   f"{resume_time(case):.12g} s is valid")
+    elif stopped and not stopped.startswith("mesh watch"):
         summary["stopped_because"] = stopped
         stopped = None
     if stopped:
         summary["stopped"] = stopped
     write_json(case / SUMMARY, summary)
+    if before:
+        raise SolverRunError(f"{stopped}; see {case / SUMMARY}\nWhat to do: {MOTION_ADVICE}\n"
+                             "OpenFOAM's message:\n    " + fatal.replace("\n", "\n    ")
+                             + f"\n(see {case / 'log.pimpleFoam'})")
     if stopped:
         raise SolverRunError(f"{stopped}; the run stopped at t = {summary['end_time_s']:.4g} s "
                              f"with a written mesh; see {case / SUMMARY}")
     return summary
+
+
+def _raise_failed(case: Path, rc: int, stopped: str | None, watch: LogWatch,
+                  fatal: str | None) -> None:
+    """Raise the error of a failed solver run: the mesh watch's reason or the exit code, the
+    first invalid-mesh line, OpenFOAM's own message (unless the watch had stopped it)."""
+    what = stopped or f"pimpleFoam failed (exit code {rc})"
+    hint = f" ({watch.broken})" if watch.broken and not stopped else ""
+    if fatal and not stopped:
+        raise SolverRunError(f"{what}{hint}, with OpenFOAM's message:\n    "
+                             + fatal.replace("\n", "\n    ")
+                             + f"\n(see {case / 'log.pimpleFoam'}; run the same command again"
+                             " to continue from the latest written time)")
+    raise SolverRunError(f"{what}{hint}; see {case / 'log.pimpleFoam'}")
 
 
 def _finished(case: Path, record: dict, ranks: int, reconstruct: bool, t_start: float) -> dict:

@@ -49,6 +49,7 @@ void Foam::whaleBlendedDisplacementMotionSolver::readCoeffs()
     outerDistance_ = dict.get<scalar>("outerDistance");
     rotation_ = dict.getOrDefault<bool>("rotation", false);
     rotationDistance_ = dict.getOrDefault<scalar>("rotationDistance", 2);
+    checkMotion_ = dict.getOrDefault<bool>("checkMotion", true);
 
     if
     (
@@ -107,7 +108,13 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
         << returnReduce(weights_->size(), sumOp<label>())
         << " mesh points blended (K " << K << ", power " << power_
         << ", innerDistance " << innerDistance_ << ", outerDistance "
-        << outerDistance_ << ", rotation " << rotation_ << ")" << endl;
+        << outerDistance_ << ", rotation " << rotation_ << ", checkMotion "
+        << checkMotion_ << ")" << endl;
+
+    if (checkMotion_)
+    {
+        motionCheck_.reset(new meshMotionCheck(mesh(), typeName));
+    }
 }
 
 
@@ -203,6 +210,12 @@ void Foam::whaleBlendedDisplacementMotionSolver::solve()
         pointDisplacement_,
         false
     );
+
+    // The points the mesh is about to move to, checked first
+    if (motionCheck_.valid())
+    {
+        motionCheck_->check(curPoints());
+    }
 }
 
 
