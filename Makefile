@@ -4,7 +4,7 @@
 #   make study      the flow study: three meshes (GCI), time step, self-propelled speed (SCENE, STUDY, NP)
 #   make test       lint + the whole test suite, OpenFOAM and ParaView included
 #   make dry-run    animate without fluid (SCENE, OUT, CYCLES)
-#   make bench      performance figures; make chart: the numerics study; make paraview: pictures
+#   make bench      performance figures (bench-flow: moving against static flow step); make chart: the numerics study; make paraview: pictures
 #   make mutation   mutation testing of the core modules (MODULES, JOBS; docs/mutation.md)
 
 SHELL := /bin/bash
@@ -25,7 +25,7 @@ JOBS ?= 2
 
 scene_args = $(if $(filter %.toml,$(SCENE)),--scene $(SCENE),--preset $(SCENE))
 
-.PHONY: help setup venv system openfoam plugin test lint dry-run calibrate run-case study bench \
+.PHONY: help setup venv system openfoam plugin test lint dry-run calibrate run-case study bench bench-flow \
         chart paraview paraview-deps mutation clean
 
 help:
@@ -75,6 +75,11 @@ study: venv system openfoam plugin
 
 bench: venv
 	$(BIN)/python scripts/bench.py
+
+# make bench-flow: a moving-mesh flow step against a static one, side by side, from a written
+# time of a coupled case that has run (CASE, default runs/default from make run-case)
+bench-flow: venv
+	$(BIN)/python scripts/bench_flow.py $(if $(CASE),--case $(CASE))
 
 chart: venv
 	$(BIN)/whale-adapter numerics --out out/numerics
