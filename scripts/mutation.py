@@ -38,12 +38,15 @@ def _workdir(module: str, tests: list[str], base: dict) -> Path:
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc", "build")
     shutil.copytree(ROOT / "adapter", work / "adapter", ignore=ignore)
     shutil.copytree(ROOT / "tests", work / "tests", ignore=ignore)
+    # some tests check the code against the documents (docs/numerics.md's method table)
+    shutil.copytree(ROOT / "docs", work / "docs", ignore=shutil.ignore_patterns("img"))
     markers = base["tool"]["pytest"]["ini_options"].get("markers", [])
     mm = base["tool"]["mutmut"]
     (work / "pyproject.toml").write_text(
         "[tool.mutmut]\n"
         f"source_paths = {_toml_list(mm['source_paths'])}\n"
         f"only_mutate = {_toml_list([module])}\n"
+        'also_copy = ["docs/"]\n'
         f"pytest_add_cli_args = {_toml_list(mm.get('pytest_add_cli_args', []))}\n"
         f"pytest_add_cli_args_test_selection = {_toml_list(tests)}\n\n"
         "[tool.pytest.ini_options]\n"

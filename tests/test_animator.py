@@ -140,3 +140,206 @@ def test_every_quarter_event_and_the_wrap_into_the_next_cycle(paper_animator):
         X, V = a.X.copy(), a.V.copy()
         a.advance_to(n + 1)
         np.testing.assert_allclose(a.X[dyn], (X + dt * V)[dyn], rtol=0, atol=1e-12)
+
+
+# -- the internal step ------------------------------------------------------------------------
+
+import math  # noqa: E402
+
+from adapter.errors import SceneError, UnstableError  # noqa: E402
+from adapter.motion.stability import stable_dt  # noqa: E402
+
+
+def _tether_rate(scene):
+    """The smooth stroke's tether frequency (rad/s): 2 pi tether f."""
+    return 2 * math.pi * scene.stroke.tether * scene.stroke.frequency_hz
+
+
+def test_the_default_step_is_a_whole_fraction_of_the_quarter_under_half_the_stable_one(
+        smoke_scene, smoke_surface):
+    """integrator.dt_s = 0: the largest step that divides the quarter stroke and is at most
+    safety (0.5) times the predicted stable step, and for the smooth stroke at most 0.05 over
+    the tether's rate; backward Euler (no stable limit) at that time-scale bound alone, and on
+    the paper's stroke at half the quarter."""
+    quarter = smoke_scene.period_s / 4
+    a = Animator(smoke_scene, smoke_surface)
+    assert a.stable_dt == pytest.approx(
+        stable_dt(a.network, a.rest, "forward_euler", free=a.dynamic))
+    target = 0.5 * a.stable_dt
+    n = math.ceil(quarter / target)
+    assert a.steps_per_quarter == n and a.dt == pytest.approx(quarter / n, rel=1e-15)
+    assert a.integrator.dt == a.dt and a.integrator.stable_dt == a.stable_dt
+    be = smoke_scene.replace(integrator={"method": "backward_euler"})
+    a = Animator(be, smoke_surface)
+    assert math.isinf(a.stable_dt) and a.integrator.name == "backward_euler"
+    assert a.steps_per_quarter == math.ceil(quarter / (0.05 / _tether_rate(smoke_scene)))
+    assert Animator(be.replace(stroke={"reversal": "negate"}), smoke_surface).steps_per_quarter \
+        == 2
+    # safety 1: the whole quarter in one step
+    one = be.replace(stroke={"reversal": "negate"}, integrator={"safety": 1.0})
+    assert Animator(one, smoke_surface).steps_per_quarter == 1
+    # a slow stroke with a slack tether: the stroke's own rate 2 pi / T bounds the step
+    slow = be.replace(stroke={"tether": 0.5})
+    a = Animator(slow, smoke_surface)
+    assert a.steps_per_quarter == math.ceil(quarter / (0.05 * slow.period_s / (2 * math.pi)))
+
+
+def test_the_tether_lowers_the_step_of_the_smooth_stroke(smoke_scene, smoke_surface):
+    """Symplectic Euler: the smaller of the stable steps with and without the tether; the
+    paper's stroke (no tether) the plain one."""
+    sc = smoke_scene.replace(integrator={"method": "symplectic_euler"})
+    a = Animator(sc, smoke_surface)
+    args = (a.network, a.rest, "symplectic_euler")
+    plain = stable_dt(*args, free=a.dynamic)
+    k = _tether_rate(sc) ** 2
+    tethered = stable_dt(*args, free=a.dynamic, tether=(k, 2 * math.sqrt(k)))
+    assert tethered < plain
+    assert a.stable_dt == pytest.approx(tethered, rel=1e-6)  # ARPACK's tolerance
+    paper = Animator(sc.replace(stroke={"reversal": "negate"}), smoke_surface)
+    assert paper.stable_dt == pytest.approx(plain, rel=1e-6)
+    no_tether = Animator(sc.replace(stroke={"tether": 0.0}), smoke_surface)
+    assert no_tether.stable_dt == pytest.approx(plain, rel=1e-6)
+    # a slack tether (k = 0.17 /s^2, below 1) still counts: 0.9 % lower
+    slack = Animator(sc.replace(stroke={"tether": 0.5}), smoke_surface)
+    k = _tether_rate(slack.scene) ** 2
+    assert k < 1
+    tethered = stable_dt(*args, free=a.dynamic, tether=(k, 2 * math.sqrt(k)))
+    assert tethered < (1 - 5e-3) * plain
+    assert slack.stable_dt == pytest.approx(tethered, rel=1e-6)
+
+
+def test_the_stable_step_is_the_spring_moved_nodes_one(smoke_scene, smoke_surface):
+    """The fluke gate is kinematic: its nodes' own modes do not limit the step. With tail
+    springs ten times the pivot's (the flukes among them) symplectic Euler's stable step on
+    the body alone is more than twice the one with the flukes free, with and without the
+    tether."""
+    sc = smoke_scene.replace(integrator={"method": "symplectic_euler"},
+                             springs={"k_tail": 4000.0})
+    for tether in (0.0, 4.0):
+        a = Animator(sc.replace(stroke={"tether": tether}), smoke_surface)
+        k = _tether_rate(a.scene) ** 2
+        tk = {"tether": (k, 2 * math.sqrt(k))} if tether else {}
+        body = stable_dt(a.network, a.rest, "symplectic_euler", free=a.dynamic, **tk)
+        every = stable_dt(a.network, a.rest, "symplectic_euler", **tk)
+        assert body > 2 * every
+        assert a.stable_dt == pytest.approx(body, rel=1e-6)
+
+
+def test_a_step_of_the_scene_is_rounded_down_to_divide_the_quarter(smoke_scene, smoke_surface):
+    quarter = smoke_scene.period_s / 4
+    a = Animator(smoke_scene.replace(integrator={"dt_s": 0.001}), smoke_surface)
+    assert a.steps_per_quarter == 1924 and a.dt == pytest.approx(quarter / 1924, rel=1e-15)
+    # a step that divides the quarter is kept as it is
+    exact = quarter / 2000
+    assert Animator(smoke_scene.replace(integrator={"dt_s": exact}),
+                    smoke_surface).steps_per_quarter == 2000
+    # the predicted stable step itself is allowed
+    stable = Animator(smoke_scene, smoke_surface).stable_dt
+    a = Animator(smoke_scene.replace(integrator={"dt_s": float(stable)}), smoke_surface)
+    assert a.dt <= stable
+
+
+def test_a_step_beyond_the_stable_one_or_no_stable_step_is_refused(smoke_scene, smoke_surface):
+    a = Animator(smoke_scene, smoke_surface)
+    too_big = 1.01 * a.stable_dt
+    with pytest.raises(UnstableError, match=(
+            rf"integrator.dt_s = {too_big:.3g} s is beyond the largest stable step predicted "
+            rf"for forward_euler, {a.stable_dt:.3g} s: the run would blow up; lower "
+            r"integrator.dt_s, set it to 0 to use the predicted step times integrator.safety, "
+            r"or choose another integrator.method")):
+        Animator(smoke_scene.replace(integrator={"dt_s": too_big}), smoke_surface)
+    with pytest.raises(SceneError, match=(
+            r"integrator.method = forward_euler has no stable step with springs.mu = 0.0 and "
+            r"springs.nu = 0.0 \(forward Euler needs damping\); raise mu")):
+        Animator(smoke_scene.replace(springs={"mu": 0.0, "nu": 0.0}), smoke_surface)
+
+
+def test_another_integrator_at_the_nearest_step_that_divides_the_quarter(smoke_scene):
+    """with_integrator / set_integrator (the studies): the step nearest the one asked that
+    divides the quarter, the whale reset to t = 0, no stability check."""
+    a = Animator.with_integrator(smoke_scene, "rk4", 0.0104, nodes=1300, mu=0.7)
+    quarter = a.period / 4
+    assert a.integrator.name == "rk4" and a.network.mu == 0.7
+    assert a.scene.geometry.nodes == 1300 and a.scene.springs.mu == 0.7
+    assert a.scene.geometry.length_m == smoke_scene.geometry.length_m
+    assert a.steps_per_quarter == round(quarter / 0.0104) == 185
+    assert a.dt == pytest.approx(quarter / 185, rel=1e-15) == a.integrator.dt
+    assert a.integrator.runaway == 2.0 * a.surface.length
+    a.advance_to(3)
+    a.set_integrator("verlet", 0.0105)  # 183.15 steps: the nearest is 183
+    assert a.steps_per_quarter == 183 and a.step_index == 0 and a.time == 0.0
+    np.testing.assert_array_equal(a.X, a.rest)
+    assert a.integrator.name == "verlet" and a.integrator.reference is a.rest
+    assert a.integrator.runaway == 2.0 * a.surface.length
+    assert a.integrator.stable_dt == a.stable_dt and a.integrator.network is a.network
+    a.set_integrator("rk4", 10.0)  # more than a quarter: one step a quarter
+    assert a.steps_per_quarter == 1 and a.dt == pytest.approx(quarter)
+    # no method: forward Euler at its predicted step; a method without a step runs at it
+    fe = Animator.with_integrator(smoke_scene.replace(integrator={"method": "rk4"}))
+    assert fe.integrator.name == "forward_euler" and fe.dt <= 0.5 * fe.stable_dt
+    assert fe.scene.geometry.nodes == 1200
+    se = Animator.with_integrator(smoke_scene, "symplectic_euler")
+    assert se.integrator.name == "symplectic_euler" and se.dt == pytest.approx(fe.dt)
+
+
+# -- times between and on the steps ------------------------------------------------------------
+
+def test_a_time_within_rounding_of_a_step_is_that_step(smoke_animator):
+    a = smoke_animator
+    k = 25
+    on = a.positions(k * a.dt)
+    assert a.step_index == k
+    np.testing.assert_array_equal(a.positions(k * a.dt * (1 + 1e-14)), on)
+    np.testing.assert_array_equal(a.positions(k * a.dt * (1 - 1e-14)), on)
+    assert a.step_index == k  # no step further for a time within rounding of step k
+    # the step before the current one, and between them, are still served; before, not
+    nxt = a.positions((k + 1) * a.dt)
+    np.testing.assert_array_equal(a.positions(k * a.dt), on)
+    np.testing.assert_allclose(a.velocity((k + 0.5) * a.dt),
+                               0.5 * (a.velocity(k * a.dt) + a.velocity((k + 1) * a.dt)))
+    np.testing.assert_array_equal(a.positions((k + 1) * a.dt), nxt)
+    with pytest.raises(TimeBehindError, match=(
+            rf"t = {(k - 0.5) * a.dt} s is behind the animator \(now at {(k + 1) * a.dt} s\): "
+            r"it only marches forward; restore a checkpoint or reset\(\) to go back")):
+        a.positions((k - 0.5) * a.dt)
+    with pytest.raises(TimeBehindError):
+        a.positions((k - 1) * a.dt)  # two steps back
+    with pytest.raises(AnimatorTimeError, match=r"time must be finite and >= 0, got -0.1"):
+        a.displacement(-0.1)
+    with pytest.raises(AnimatorTimeError, match="got inf"):
+        a.displacement(float("inf"))
+
+
+def test_restore_after_a_failure_runs_again(smoke_animator):
+    """A checkpoint restored into an animator whose integrator failed: running again, the
+    count of steps the checkpoint's; the time 0 after a reset, flat, with the profile."""
+    a = smoke_animator
+    a.displacement(30 * a.dt)
+    ck = a.checkpoint()
+    a.integrator.status = "failed"
+    a.restore(ck)
+    assert a.integrator.status == "running" and a.time == 30 * a.dt
+    a.advance_to(31)
+    a.reset()
+    assert a.integrator.status == "running" and a.integrator.n_steps == 0 and a.time == 0
+    np.testing.assert_array_equal(a.X, a.rest)
+    with pytest.raises(CheckpointError, match=r"^the checkpoint belongs to another scene "
+                                              r"\(step or node count differ\)$"):
+        a.restore(dict(ck, X=ck["X"][:-1]))
+
+
+def test_the_animator_runs_the_surface_it_is_given(smoke_scene, smoke_surface):
+    """The surface handed in (here one of 1300 nodes for the 1200-node smoke scene), its
+    network in the scene's form, the integrator checking against its rest shape."""
+    from adapter.body.geometry import build_surface
+
+    other = build_surface(smoke_scene.replace(geometry={"nodes": 1300}))
+    a = Animator(smoke_scene.replace(springs={"form": "symmetric"}), other)
+    assert a.surface is other and a.rest.shape == other.points.shape != smoke_surface.points.shape
+    assert a.network.form == "symmetric"
+    integ = a.integrator
+    assert integ.network is a.network and integ.reference is a.rest
+    assert integ.runaway == 2.0 * other.length and integ.stable_dt == a.stable_dt
+    t = 0.3 * a.period
+    assert a.fluke_angle(t) == a.drive.fluke_angle(t)
+    assert Animator(smoke_scene).rest.shape == smoke_surface.points.shape  # built if not given

@@ -188,10 +188,11 @@ class Integrator:
 
     def _verdict(self, dev: float) -> None:
         """Fail (for good) if the largest deviation from the reference is past the runaway
-        limit or not a number."""
+        limit, or infinite (the state holds NaN or infinity: ``deviation``'s answer), or not
+        a number."""
         limit = self.runaway if (self.runaway is not None and self.reference is not None) \
             else np.inf
-        if not dev <= limit:
+        if not (dev <= limit and dev < np.inf):
             self.status = "failed"
             hint = (f"; the largest stable step predicted for {self.name} is "
                     f"{self.stable_dt:.3g} s" if self.stable_dt else "")
