@@ -25,6 +25,17 @@ from adapter.motion.gait import (
     smootherstep,
 )
 
+
+def _floats(a) -> np.ndarray:
+    """A contiguous float64 array: the numba kernels' type for values."""
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def _labels(a) -> np.ndarray:
+    """A contiguous int64 array: the numba kernels' type for node labels."""
+    return np.ascontiguousarray(a, dtype=np.int64)
+
+
 #: half-width (fraction of L) of the band of body nodes just ahead of the tail base whose
 #: mean motion carries the fluke hinge
 HINGE_BAND = 0.015
@@ -79,18 +90,14 @@ class StrokeDrive:
         #: (k, c): the smooth stroke's tether, a stiffness and a damping on every moving node
         self.tether = (w_t * w_t, 2 * w_t)
         # the paper's stroke has no force, only the gate
-        some = moving if self.smooth else np.zeros(0, dtype=np.int64)
-        c64 = np.ascontiguousarray
+        some = moving if self.smooth else _labels(())
         #: (rest, moving, profile, damping, (k, c), hinge nodes, fluke nodes, arms, hinge0,
         #: bend): the arrays of the time-aware right-hand side (integrators.Integrator.step)
         self.stage_arrays = (
-            c64(rest, dtype=np.float64), c64(some, dtype=np.int64),
-            c64(profile[moving][: len(some)], dtype=np.float64),
-            c64(moving_damping[: len(some)], dtype=np.float64),
-            np.array(self.tether, dtype=np.float64),
-            c64(self.hinge_nodes, dtype=np.int64), c64(self._fluke_nodes, dtype=np.int64),
-            c64(self._fluke_arm, dtype=np.float64), c64(self.hinge0, dtype=np.float64),
-            c64(self._fluke_bend, dtype=np.float64))
+            _floats(rest), _labels(some), _floats(profile[moving][: len(some)]),
+            _floats(moving_damping[: len(some)]), _floats(self.tether),
+            _labels(self.hinge_nodes), _labels(self._fluke_nodes), _floats(self._fluke_arm),
+            _floats(self.hinge0), _floats(self._fluke_bend))
 
     def stage_coefficients(self, t: float, dt: float, stages) -> np.ndarray:
         """(len(stages), 5) rows (G'(s), G(s), D(s), theta(s), theta'(s)) at the stage times
