@@ -5,8 +5,10 @@
 
 #include "meshMotionCheck.H"
 #include "movedMeshGeometry.H"
+#include "movingMeshPart.H"
 #include "primitiveMeshTools.H"
 #include "polyMeshTools.H"
+#include "syncTools.H"
 #include "unitConversion.H"
 #include "OStringStream.H"
 #include "Time.H"
@@ -59,6 +61,56 @@ struct finding
 };
 
 
+//- The volume of the pyramid of a face (centre fc, area vector fa) with
+//  apex c, positive when c is on the side fa points away from (the owner's)
+inline scalar pyramidVolume(const point& fc, const vector& fa, const point& c)
+{
+    return (1.0/3.0)*(fa & (fc - c));
+}
+
+
+//- The cosine of each face's non-orthogonality (1 on uncoupled boundary
+//  faces): the faces listed, from the face areas and cell centres cc of
+//  the whole mesh (polyMeshTools::faceOrthogonality; collective)
+void faceOrthogonality
+(
+    const polyMesh& mesh,
+    const labelUList& faces,
+    const vectorField& areas,
+    const vectorField& cc,
+    scalarField& ortho
+)
+{
+    const labelList& own = mesh.faceOwner();
+    const labelList& nei = mesh.faceNeighbour();
+    const polyBoundaryMesh& pbm = mesh.boundaryMesh();
+    pointField neiCc;
+    syncTools::swapBoundaryCellPositions(mesh, cc, neiCc);
+    for (const label facei : faces)
+    {
+        if (mesh.isInternalFace(facei))
+        {
+            ortho[facei] = primitiveMeshTools::faceOrthogonality
+            (
+                cc[own[facei]], cc[nei[facei]], areas[facei]
+            );
+        }
+        else if (pbm[pbm.whichPatch(facei)].coupled())
+        {
+            ortho[facei] = primitiveMeshTools::faceOrthogonality
+            (
+                cc[own[facei]], neiCc[facei - mesh.nInternalFaces()],
+                areas[facei]
+            );
+        }
+        else
+        {
+            ortho[facei] = 1;
+        }
+    }
+}
+
+
 string plural(const label n, const char* one, const char* many)
 {
     OStringStream os;
@@ -76,7 +128,9 @@ Foam::meshMotionCheck::meshMotionCheck(const polyMesh& mesh, const word& owner)
     mesh_(mesh),
     owner_(owner),
     inUse_(mesh.time().value()),
-    lastWritten_(inUse_)
+    lastWritten_(inUse_),
+    masterFaces_(syncTools::getInternalOrMasterFaces(mesh)),
+    ortho_(polyMeshTools::faceOrthogonality(mesh, mesh.faceAreas(), mesh.cellCentres()))
 {}
 
 
@@ -110,21 +164,26 @@ Foam::string Foam::meshMotionCheck::diagnose
             area.note(mag(fAreas[facei]), mesh_.faceCentres()[facei]);
         }
     }
-    scalarField ownPyr, neiPyr;
-    primitiveMeshTools::facePyramidVolume
-    (
-        mesh_, newPoints, cellCtrs, ownPyr, neiPyr
-    );
-    forAll(ownPyr, facei)
+    const labelList& own = mesh_.faceOwner();
+    const labelList& nei = mesh_.faceNeighbour();
+    const vectorField& fCtrs = moved.faceCentres();
+    forAll(fAreas, facei)
     {
         const point& fc = mesh_.faceCentres()[facei];
-        if (ownPyr[facei] < -SMALL)
+        const scalar ownPyr =
+            pyramidVolume(fCtrs[facei], fAreas[facei], cellCtrs[own[facei]]);
+        if (ownPyr < -SMALL)
         {
-            pyr.note(ownPyr[facei], fc);
+            pyr.note(ownPyr, fc);
         }
-        if (mesh_.isInternalFace(facei) && neiPyr[facei] < -SMALL)
+        if (mesh_.isInternalFace(facei))
         {
-            pyr.note(neiPyr[facei], fc);
+            const scalar neiPyr =
+              - pyramidVolume(fCtrs[facei], fAreas[facei], cellCtrs[nei[facei]]);
+            if (neiPyr < -SMALL)
+            {
+                pyr.note(neiPyr, fc);
+            }
         }
     }
     // (cos of the angle; 90 degrees or more is an error whatever the
@@ -191,16 +250,66 @@ Foam::string Foam::meshMotionCheck::diagnose
 
 void Foam::meshMotionCheck::check(const pointField& newPoints)
 {
-    // Quiet: with polyMesh's debug switch on (run-case's mesh watch) it
-    // would print its lines now and again when the mesh moves
-    const int debug0 = polyMesh::debug;
-    polyMesh::debug = 0;
-    const bool invalid = mesh_.checkMeshMotion(newPoints, false, false);
-    polyMesh::debug = debug0;
+    // The part that moves, its new geometry; the other cells' centres are
+    // the mesh's
+    const movingMeshPart part(mesh_, newPoints);
+    const movedMeshGeometry moved(mesh_, newPoints, part.faces(), part.cells());
+    vectorField cc(mesh_.cellCentres());
+    for (const label celli : part.cells())
+    {
+        cc[celli] = moved.cellCentres()[celli];
+    }
+    const vectorField& fc = moved.faceCentres();
+    const vectorField& fa = moved.faceAreas();
+    faceOrthogonality(mesh_, part.faces(), fa, cc, ortho_);
+
+    // checkMeshMotion's four checks (its limits) on the part
+    label nBad = 0;
+    for (const label celli : part.cells())
+    {
+        nBad += moved.cellVolumes()[celli] < VSMALL;
+    }
+    const labelList& own = mesh_.faceOwner();
+    const labelList& nei = mesh_.faceNeighbour();
+    for (const label facei : part.faces())
+    {
+        nBad += mag(fa[facei]) < VSMALL;
+        nBad += pyramidVolume(fc[facei], fa[facei], cc[own[facei]]) < -SMALL;
+        nBad +=
+            mesh_.isInternalFace(facei)
+         && -pyramidVolume(fc[facei], fa[facei], cc[nei[facei]]) < -SMALL;
+        nBad += ortho_[facei] <= SMALL;
+    }
+    const bool invalid = returnReduce(nBad, sumOp<label>()) > 0;
 
     const Time& runTime = mesh_.time();
     if (!invalid)
     {
+        // The whole new mesh's figures, as OpenFOAM's checks print them
+        scalar minVol = GREAT;
+        const scalarField& vols = mesh_.cellVolumes();
+        forAll(vols, celli)
+        {
+            minVol = min
+            (
+                minVol,
+                part.moves(celli) ? moved.cellVolumes()[celli] : vols[celli]
+            );
+        }
+        scalar minDDotS = GREAT;
+        for (const label facei : masterFaces_)
+        {
+            minDDotS = min(minDDotS, ortho_[facei]);
+        }
+        reduce(minVol, minOp<scalar>());
+        reduce(minDDotS, minOp<scalar>());
+        Info<< owner_ << ": the new mesh: Min volume = " << minVol
+            << ". Mesh non-orthogonality Max: "
+            << radToDeg(::acos(min(1.0, max(-1.0, minDDotS)))) << " ("
+            << returnReduce(part.cells().size(), sumOp<label>()) << " of "
+            << returnReduce(mesh_.nCells(), sumOp<label>())
+            << " cells moved)" << endl;
+
         inUse_ = runTime.value();
         if (runTime.writeTime())
         {
