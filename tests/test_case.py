@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 import shutil
+from pathlib import Path
 
 import meshio
 import numpy as np
@@ -107,6 +108,26 @@ def test_prepare_case_mesh_motion_laplacian(tmp_path, smoke, smoke_surface):
     dyn = _read(tmp_path / "c" / "constant" / "dynamicMeshDict")
     assert dyn["motionSolver"] == "displacementLaplacian"
     assert "libfvMotionSolvers.so" in str(dyn["motionSolverLibs"])
+    # no check of its own: OpenFOAM's (polyMesh debug) reports every moved mesh to the watch
+    assert R.solver_command(tmp_path / "c")[1:3] == ["-debug-switch", "polyMesh=1"]
+
+
+def test_the_blended_motion_runs_without_openfoams_second_check(tmp_path, smoke, smoke_surface):
+    C.prepare_case(smoke, tmp_path / "c", surface=smoke_surface)
+    assert R.motion_checks_itself(tmp_path / "c")
+    assert R.solver_command(tmp_path / "c") == ["pimpleFoam", "-opt-switch",
+                                                f"stopAtWriteNowSignal={int(R.STOP_SIGNAL)}"]
+    dyn = tmp_path / "c" / "constant" / "dynamicMeshDict"
+    dyn.write_text(dyn.read_text().replace("checkMotion yes", "checkMotion no"))
+    assert "-debug-switch" in R.solver_command(tmp_path / "c")
+
+
+def test_log_watch_reads_the_blended_motions_figures():
+    watch = LG.LogWatch(Path("unused"))
+    for angle, vol in ((64.5, 2e-6), (63.0, 3e-6)):
+        watch.feed(f"whaleBlendedDisplacement: the new mesh: Min volume = {vol}. Total volume ="
+                   f" 1000. Mesh non-orthogonality Max: {angle} average: 9.1 (5 of 9 cells moved)")
+    assert (watch.min_volume, watch.max_non_orth, watch.last_non_orth) == (2e-6, 64.5, 63.0)
 
 
 def test_smoke_preset_is_small(smoke, smoke_surface):

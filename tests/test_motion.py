@@ -29,6 +29,7 @@ Skipped without pimpleFoam or without the built library (scripts/build_plugin.sh
 
 from __future__ import annotations
 
+import re
 import shutil
 
 import numpy as np
@@ -353,3 +354,46 @@ def _is_time(name: str) -> bool:
     except ValueError:
         return False
     return True
+
+
+_PLUGIN_FIGURES = re.compile(r"the new mesh: Min volume = (\S+)\. Total volume = (\S+)\. Mesh "
+                             r"non-orthogonality Max: (\S+) average: (\S+) \((\d+) of (\d+) "
+                             r"cells moved\)")
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_the_motion_check_prints_the_figures_of_openfoams_own_check(tmp_path, ranks):
+    """The check computes only the cells that move (and their faces), yet prints the smallest
+    cell volume and the largest non-orthogonality of the whole new mesh: the figures OpenFOAM's
+    own check (polyMesh debug, after the move) prints for the same mesh, every step; so run-case
+    can leave that second check out. The total volume and the mean non-orthogonality, sums over
+    every cell and face, also agree: a cell or face of the moving part left out would keep its
+    old value and change them."""
+    if ranks > 1 and shutil.which("mpirun") is None:
+        pytest.skip("mpirun is not on PATH")
+    case = tmp_path / "case"
+    make_case(case, "translate", False)
+    T.run_utility(case, ["blockMesh"])
+    solver = ["pimpleFoam", "-debug-switch", "polyMesh=1"]
+    if ranks > 1:
+        T.run_utility(case, ["decomposePar"])
+        solver = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", "2", *solver,
+                  "-parallel"]
+    T.run_utility(case, solver, log_name="pimpleFoam")
+    log = (case / "log.pimpleFoam").read_text()
+    ours = [(float(v), float(t), float(a), float(m), int(n), int(c))
+            for v, t, a, m, n, c in _PLUGIN_FIGURES.findall(log)]
+    vols = re.findall(r"^\s*Min volume = (\S+?)\. .*Total volume = (\S+?)\.\s", log, re.M)
+    angles = re.findall(r"^\s*Mesh non-orthogonality Max: (\S+) average: (\S+)", log, re.M)
+    theirs = [v + a for v, a in zip(vols, angles, strict=True)]
+    assert len(ours) == N_STEPS == len(theirs)
+    for (*figures, moved, cells), other in zip(ours, theirs, strict=True):
+        assert 0 < moved < cells == 888                   # a part of the mesh, not all of it
+        assert figures == pytest.approx([float(x) for x in other], rel=1e-9)
+    assert len({a for _, _, a, _, _, _ in ours}) > 1    # the figures follow the motion
+    # and the log watch reads them (one line holds both)
+    watch = LG.LogWatch(case / "log.pimpleFoam")
+    for line in (f"whaleBlendedDisplacement: {m.group(0)}" for m in _PLUGIN_FIGURES.finditer(log)):
+        watch.feed(line)
+    assert watch.min_volume == min(f[0] for f in ours)
+    assert watch.max_non_orth == max(f[2] for f in ours)

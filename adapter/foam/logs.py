@@ -2,12 +2,15 @@
 which follows a growing pimpleFoam log (times, Courant number, the mesh-motion checks, the
 plugin's timing); :class:`Progress` shows it as one line.
 
-Mesh watch: pimpleFoam runs with ``-debug-switch polyMesh=1``, which makes OpenFOAM v1912's
-``polyMesh::movePoints`` check every new mesh (``checkMeshMotion``) and print the smallest cell
-volume and the largest face non-orthogonality of every step, in the same words as checkMesh
-(:data:`NON_ORTHOGONALITY_RE` reads both). The blended mesh motion checks the new points itself
-before the mesh moves and stops the run with a FatalError when they would make an invalid mesh;
-:func:`motion_check_stop` reads it. See docs/case.md.
+Mesh watch: the blended mesh motion (``whaleBlendedDisplacement``, ``checkMotion yes``) checks
+the new points before the mesh moves, prints the smallest cell volume and the largest face
+non-orthogonality of every new mesh in the words of OpenFOAM's own checks (one line:
+``whaleBlendedDisplacement: the new mesh: Min volume = V. Mesh non-orthogonality Max: A ...``),
+and stops the run with a FatalError when they would make an invalid mesh
+(:func:`motion_check_stop` reads it). Any other motion runs with ``-debug-switch polyMesh=1``,
+which makes OpenFOAM v1912's ``polyMesh::movePoints`` check every new mesh (``checkMeshMotion``)
+and print the same figures (two lines) and the invalid-mesh lines. :data:`NON_ORTHOGONALITY_RE`
+also reads checkMesh's. See docs/case.md.
 """
 
 from __future__ import annotations
@@ -128,16 +131,17 @@ class LogWatch:
             self.seen.append(time.perf_counter())
         elif m := _EXEC_RE.match(line):
             self.exec_times.append(float(m.group(1)))
-        elif m := NON_ORTHOGONALITY_RE.search(line):
-            v = float(m.group(1))
-            self.last_non_orth = v
-            self.max_non_orth = _nanmax(self.max_non_orth, v)
-        elif m := _MINVOL_RE.search(line):
-            self.min_volume = _nanmin(self.min_volume, float(m.group(1)))
         elif m := _COURANT_RE.match(line):
             self.max_courant = _nanmax(self.max_courant, float(m.group(1)))
         elif m := _PLUGIN_RE.search(line):
             self.plugin = (int(m.group(1)), float(m.group(2)))
+        # (the blended motion's check prints both on one line, OpenFOAM's check on two)
+        if m := NON_ORTHOGONALITY_RE.search(line):
+            v = float(m.group(1))
+            self.last_non_orth = v
+            self.max_non_orth = _nanmax(self.max_non_orth, v)
+        if m := _MINVOL_RE.search(line):
+            self.min_volume = _nanmin(self.min_volume, float(m.group(1)))
         if self.broken is None and _BROKEN_RE.search(line):
             self.broken = line.strip()
 

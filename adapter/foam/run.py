@@ -2,12 +2,13 @@
 (:mod:`adapter.foam.stepserver`) in the background; its log followed (:mod:`adapter.foam.logs`)
 with a progress line and the mesh watch, and the summary written (:mod:`adapter.foam.summary`).
 
-Mesh watch: when the non-orthogonality of the moved mesh passes ``case.max_non_orthogonality``
-the solver gets SIGUSR1, which ``-opt-switch stopAtWriteNowSignal=10`` turns into "write this
-step and stop", so the run ends on a written, still valid mesh. The blended mesh motion
-(``whaleBlendedDisplacement``, ``checkMotion yes``) checks the new points before the mesh moves
-and stops the run with a FatalError when they would make an invalid mesh; that run ends with
-``stopped`` saying so and an error. See docs/case.md.
+Mesh watch (the figures from the blended motion's own check, or with any other motion from
+polyMesh's debug switch: :func:`solver_command`): when the non-orthogonality of the moved mesh
+passes ``case.max_non_orthogonality`` the solver gets SIGUSR1, which ``-opt-switch
+stopAtWriteNowSignal=10`` turns into "write this step and stop", so the run ends on a written,
+still valid mesh. The blended mesh motion (``whaleBlendedDisplacement``, ``checkMotion yes``)
+checks the new points before the mesh moves and stops the run with a FatalError when they would
+make an invalid mesh; that run ends with ``stopped`` saying so and an error. See docs/case.md.
 """
 
 from __future__ import annotations
@@ -49,6 +50,28 @@ MOTION_ADVICE = ("make the whale's motion gentler where the mesh would fold (a s
                  "pitch: [stroke] fluke_angle_scale), spread the mesh motion over more cells "
                  "([case] motion_inner, motion_outer) or mesh that region differently "
                  "(docs/case.md, 'Mesh watch')")
+
+
+def motion_checks_itself(case: Path) -> bool:
+    """Does the case's mesh motion check and report every new mesh itself?
+
+    ``whaleBlendedDisplacement`` with ``checkMotion yes`` (its default) prints the smallest cell
+    volume and the largest non-orthogonality of every new mesh, in the words of OpenFOAM's own
+    checks, before it moves the mesh; any other motion (the Laplacian) needs polyMesh's debug
+    switch for the log watch."""
+    d = parsed_dict(case / "constant" / "dynamicMeshDict")
+    if d["motionSolver"] != "whaleBlendedDisplacement":
+        return False
+    check = d["whaleBlendedDisplacementCoeffs"].get("checkMotion", "yes")
+    return str(check).lower() in ("yes", "on", "true", "1")
+
+
+def solver_command(case: Path) -> list:
+    """pimpleFoam with the stop signal, and polyMesh's debug switch (OpenFOAM checks every moved
+    mesh and prints its figures) unless the motion does that itself (:func:`motion_checks_itself`:
+    the same check again costs 0.02 CPU s a step on the default mesh)."""
+    debug = [] if motion_checks_itself(case) else ["-debug-switch", "polyMesh=1"]
+    return ["pimpleFoam", *debug, "-opt-switch", f"stopAtWriteNowSignal={int(STOP_SIGNAL)}"]
 
 
 def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
@@ -111,8 +134,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     env.pop(TOKEN_ENV, None)
     if token:
         env[TOKEN_ENV] = token
-    solver = ["pimpleFoam", "-debug-switch", "polyMesh=1",
-              "-opt-switch", f"stopAtWriteNowSignal={int(STOP_SIGNAL)}"]
+    solver = solver_command(case)
     server = None
     stopped = None
     watch = LogWatch(case / "log.pimpleFoam")

@@ -287,25 +287,36 @@ void Foam::meshMotionCheck::check(const pointField& newPoints)
     {
         // The whole new mesh's figures, as OpenFOAM's checks print them
         scalar minVol = GREAT;
+        scalar sumVol = 0;
         const scalarField& vols = mesh_.cellVolumes();
         forAll(vols, celli)
         {
-            minVol = min
-            (
-                minVol,
-                part.moves(celli) ? moved.cellVolumes()[celli] : vols[celli]
-            );
+            const scalar v =
+                part.moves(celli) ? moved.cellVolumes()[celli] : vols[celli];
+            minVol = min(minVol, v);
+            sumVol += v;
         }
         scalar minDDotS = GREAT;
+        scalar sumDDotS = 0;
         for (const label facei : masterFaces_)
         {
             minDDotS = min(minDDotS, ortho_[facei]);
+            sumDDotS += ortho_[facei];
         }
         reduce(minVol, minOp<scalar>());
+        reduce(sumVol, sumOp<scalar>());
         reduce(minDDotS, minOp<scalar>());
+        reduce(sumDDotS, sumOp<scalar>());
+        const label nSummed =
+            returnReduce(label(masterFaces_.count()), sumOp<label>());
+        const auto deg = [](const scalar c)
+        {
+            return radToDeg(::acos(min(1.0, max(-1.0, c))));
+        };
         Info<< owner_ << ": the new mesh: Min volume = " << minVol
-            << ". Mesh non-orthogonality Max: "
-            << radToDeg(::acos(min(1.0, max(-1.0, minDDotS)))) << " ("
+            << ". Total volume = " << sumVol
+            << ". Mesh non-orthogonality Max: " << deg(minDDotS)
+            << " average: " << deg(sumDDotS/max(nSummed, label(1))) << " ("
             << returnReduce(part.cells().size(), sumOp<label>()) << " of "
             << returnReduce(mesh_.nCells(), sumOp<label>())
             << " cells moved)" << endl;
