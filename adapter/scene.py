@@ -172,6 +172,9 @@ class Case:
     background_cell_m: float = field(default=0.0, metadata={"check": _non_negative})
     #: snappyHexMesh surface refinement levels (min, max)
     refinement: tuple = field(default=(2, 4))
+    #: snappyHexMesh level of the cells within one such cell of the flippers (0: none): their
+    #: roots and edges, where the layer stage leaves faces bare, then keep y+ under 300
+    flipper_level: int = field(default=5, metadata={"check": lambda v: 0 <= v <= 8})
     #: simulated stroke cycles; end time = cycles / frequency unless end_time_s > 0
     cycles: float = field(default=1.0, metadata={"check": _positive})
     end_time_s: float = field(default=0.0, metadata={"check": _non_negative})
@@ -339,6 +342,11 @@ def _check_relations(obj, path: str) -> None:
         len(obj.refinement) != 2 or not 0 <= obj.refinement[0] <= obj.refinement[1] <= 8
     ):
         raise SceneError(f"{path}.refinement: expected [min, max] levels with 0 <= min <= max <= 8")
+    if isinstance(obj, Case) and 0 < obj.flipper_level <= obj.refinement[0]:
+        raise SceneError(
+            f"{path}.flipper_level = {obj.flipper_level} refines nothing: the flippers' surface "
+            f"is already at level {obj.refinement[0]} (refinement min) or finer; give a level "
+            "above it, or 0 for none")
 
 
 def _read_toml(text: str, where: str) -> dict:

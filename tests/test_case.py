@@ -19,6 +19,7 @@ import pytest
 from PyFoam.Basics.DataStructures import Field, Vector
 from PyFoam.RunDictionary.ParsedParameterFile import ParsedParameterFile
 
+from adapter.body import meshfile
 from adapter.body.geometry import build_surface
 from adapter.errors import AdapterError, SolverRunError
 from adapter.foam import case as C
@@ -28,6 +29,7 @@ from adapter.foam import mesh as M
 from adapter.foam import parameters as P
 from adapter.foam import run as R
 from adapter.foam import summary as S
+from adapter.foam import yplus as YP
 from adapter.scene import load_scene
 
 needs_openfoam = pytest.mark.skipif(shutil.which("pimpleFoam") is None,
@@ -64,6 +66,11 @@ def test_parameters_domain_and_cells():
         assert n * size == pytest.approx(b - a)
         assert abs(size - c.background_cell * L) < 0.1 * c.background_cell * L
     assert p.smallest_cell_m == pytest.approx(min(p.cell_size) / 2 ** c.refinement[1])
+    # the flippers' cells: a level finer than the surface's finest (and 0 for none)
+    assert c.flipper_level == c.refinement[1] + 1
+    assert p.flipper_cell_m == pytest.approx(min(p.cell_size) / 2 ** c.flipper_level)
+    assert P.case_parameters(scene.replace(case={"flipper_level": 0}), lo, hi).flipper_cell_m \
+        == 0.0
     # the point snappyHexMesh keeps lies in the water: in the box, upstream of the whale
     assert p.domain_min[0] < p.location_in_mesh[0] < lo[0]
     assert p.ranks == c.ranks
@@ -166,6 +173,9 @@ def test_prepare_case_writes_readable_dictionaries(tmp_path, smoke, smoke_surfac
     assert list(cm["refinementSurfaces"]["whale"]["level"]) == list(smoke.case.refinement)
     assert [float(v) for v in cm["locationInMesh"]] == pytest.approx(p.location_in_mesh)
     assert sh["addLayers"] in (False, "false")
+    # no flipper refinement in the smoke preset: neither the region nor its surface
+    assert smoke.case.flipper_level == 0
+    assert "flippers" not in cm["refinementRegions"] and "flippers.stl" not in sh["geometry"]
 
     dp = _read(case / "system" / "decomposeParDict")
     assert int(dp["numberOfSubdomains"]) == 1
@@ -211,6 +221,17 @@ def test_prepare_case_default_is_turbulent_and_static_option(tmp_path, smoke_sur
     # without the plugin library a static whale needs no library (and gets no loads)
     monkeypatch.setenv("WHALE_PLUGIN_LIB", str(tmp_path / "absent.so"))
     C.prepare_case(scene, case, surface=smoke_surface, static_whale=True, ranks=2)
+    # the flippers' refinement region: cells within one cell of flipper_level of the flippers
+    p = json.loads((case / C.CASE_RECORD).read_text())["parameters"]
+    cm = _read(case / "system" / "snappyHexMeshDict")["castellatedMeshControls"]
+    flippers = cm["refinementRegions"]["flippers"]
+    assert flippers["mode"] == "distance"
+    (distance, level), = flippers["levels"]
+    assert level == scene.case.flipper_level
+    assert distance == pytest.approx(min(p["cell_size"]) / 2 ** level)
+    geometry = _read(case / "system" / "snappyHexMeshDict")["geometry"]
+    assert geometry["flippers.stl"]["name"] == "flippers"
+    assert (case / "constant" / "triSurface" / C.FLIPPERS_STL).is_file()
     tp = _read(case / "constant" / "turbulenceProperties")
     assert tp["simulationType"] == "RAS"
     assert tp["RAS"]["RASModel"] == "kOmegaSST"
@@ -336,6 +357,43 @@ def test_smoke_mesh_has_a_whale_patch(smoke_mesh):
     for name in ("blockMesh", "snappyHexMesh", "checkMesh"):
         assert (case / f"log.{name}").is_file()
     assert (case / "0" / "U").is_file()
+
+
+def _whale_faces(case):
+    """Centres and areas of the whale patch's faces."""
+    mesh = case / "constant" / "polyMesh"
+    pts = YP.read_points(mesh / "points")
+    patch = YP.read_boundary(mesh / "boundary")["whale"]
+    faces = YP.read_faces(mesh / "faces")[patch["startFace"]:][:patch["nFaces"]]
+    centres = np.array([pts[f].mean(axis=0) for f in faces])
+    return centres, np.linalg.norm(YP.face_area_vectors(pts, faces), axis=1)
+
+
+@pytest.mark.openfoam
+@needs_openfoam
+def test_the_flippers_get_finer_cells(tmp_path, smoke, smoke_surface, smoke_mesh):
+    """case.flipper_level one above the smoke surface's finest level (2): each level halves a
+    cell's edge, so the whale's faces on the flippers shrink to about a quarter of their
+    area on the same smoke mesh without it; faces beyond the refinement's buffer (3 cells of
+    level 2 around the level-3 cells, snappyHexMesh's nCellsBetweenLevels) keep their size."""
+    from scipy.spatial import cKDTree
+
+    plain, _ = smoke_mesh
+    case = tmp_path / "case"
+    C.prepare_case(smoke.replace(case={"flipper_level": 3}), case, surface=smoke_surface,
+                   static_whale=True)
+    M.mesh_case(case)
+    flippers = meshfile.read_stl_solids(case / "constant" / "triSurface" / C.FLIPPERS_STL)
+    near = cKDTree(flippers["flippers"].reshape(-1, 3))
+    cell = min(C.read_record(case)["parameters"]["cell_size"])   # level 0
+    median = {}
+    for name, folder in (("fine", case), ("plain", plain)):
+        centres, areas = _whale_faces(folder)
+        distance = near.query(centres)[0]
+        median[name] = (np.median(areas[distance < cell / 2**3]),
+                        np.median(areas[distance > 3 * cell / 2**2 + cell / 2**2]))
+    assert median["fine"][0] < 0.4 * median["plain"][0]
+    assert median["fine"][1] == pytest.approx(median["plain"][1], rel=0.02)
 
 
 @pytest.mark.openfoam

@@ -6,11 +6,12 @@ run: tests/test_loads.py.)"""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from adapter.body import meshfile, regions
 from adapter.body.surface import WhaleSurface
 from adapter.foam import loads as ld
-from adapter.foam.case import REGIONS_STL, prepare_case
+from adapter.foam.case import FLIPPERS_STL, REGIONS_STL, prepare_case
 from adapter.foam.swimrun import COST_ROWS
 
 
@@ -82,6 +83,12 @@ def test_prepared_case_has_the_three_solids_and_the_regions_entry(smoke_scene, s
         len(meshfile.read_stl_solids(tri_dir / "whale.stl")) == 1
     control = (tmp_path / "case" / "system" / "controlDict").read_text()
     assert f'regions "$FOAM_CASE/constant/triSurface/{REGIONS_STL}";' in control
+    # the flippers alone, for snappyHexMesh's refinement region (case.flipper_level)
+    alone = meshfile.read_stl_solids(tri_dir / FLIPPERS_STL)
+    assert list(alone) == ["flippers"]
+    np.testing.assert_array_equal(alone["flippers"], p[tri[reg == regions.FLIPPERS]])
+    with pytest.raises(ValueError, match="no region 'fins': the regions are body, flippers"):
+        smoke_surface.write_regions_stl(tmp_path / "fins.stl", only="fins")
 
 
 def test_region_figures_add_up_to_the_totals(tmp_path):

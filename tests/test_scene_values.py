@@ -107,6 +107,7 @@ def test_good_values_are_stored_as_their_kind(tmp_path):
     ("output.samples_per_cycle", [8], [7]),
     ("case.max_non_orthogonality", [1e-9, 89.99], [0.0, 90.0]),
     ("case.layers", [0, 20], [-1, 21]),
+    ("case.flipper_level", [0, 8], [-1, 9]),
     ("case.layer_expansion", [1.0, 3.0], [0.99, 3.01]),
     ("case.writes_per_cycle", [1], [0]),
     ("case.ranks", [1], [0]),
@@ -135,12 +136,15 @@ def test_each_range_at_its_limits(tmp_path, key, ok, bad):
      "case.refinement: expected [min, max] levels with 0 <= min <= max <= 8"),
     ("[case]\nrefinement = [3, 9]\n",
      "case.refinement: expected [min, max] levels with 0 <= min <= max <= 8"),
+    ("[case]\nrefinement = [2, 4]\nflipper_level = 2\n",
+     "case.flipper_level = 2 refines nothing: the flippers' surface is already at level 2 "
+     "(refinement min) or finer; give a level above it, or 0 for none"),
 ])
 def test_the_relations_between_keys(tmp_path, text, message):
     _refused(tmp_path, text, message)
     ok = {"stroke": "[stroke]\nhead_node = 0.399\npivot = 0.4\n",
           "regions": "[regions]\nhead_end = 0.49\ntail_start = 0.5\n",
-          "case": "[case]\nrefinement = [3, 3]\n"}[message.split(".")[0]]
+          "case": "[case]\nrefinement = [3, 3]\nflipper_level = 4\n"}[message.split(".")[0]]
     _load(tmp_path, ok)
 
 

@@ -153,6 +153,7 @@ velocity_scale = 1.07368
 [case]
 background_cell_m = 4.0
 refinement = [1, 2]
+flipper_level = 0
 cycles = 4
 dt_s = 0.1
 writes_per_cycle = 4

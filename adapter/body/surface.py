@@ -92,10 +92,18 @@ class WhaleSurface:
         reg = self.triangle_regions()
         return {name: float(area[reg == k].sum()) for k, name in enumerate(REGIONS)}
 
-    def write_regions_stl(self, path: str | Path) -> None:
+    def write_regions_stl(self, path: str | Path, only: str | None = None) -> None:
         """An ASCII STL with one solid per region, named as :data:`REGIONS` (the whaleLoads
-        function object's ``regions`` surface; docs/openfoam-plugin.md)."""
-        write_region_stl(path, self.points, self.triangles, self.triangle_regions())
+        function object's ``regions`` surface; docs/openfoam-plugin.md); ``only``: that
+        region's solid alone."""
+        regions = self.triangle_regions()
+        if only is None:
+            write_region_stl(path, self.points, self.triangles, regions)
+            return
+        if only not in REGIONS:
+            raise ValueError(f"no region {only!r}: the regions are {', '.join(REGIONS)}")
+        mine = np.where(regions == REGIONS.index(only), 0, -1)
+        write_region_stl(path, self.points, self.triangles, mine, names=(only,))
 
     def write(self, path: str | Path, point_data: dict | None = None) -> None:
         """Write the surface; the format follows the suffix (STL, OBJ, VTK, VTU, VTP, PLY ...).

@@ -34,9 +34,12 @@ TEMPLATE_DIR = resources.TEMPLATE_DIR
 CASE_RECORD = "adapter-case.json"
 #: the regions surface the loads function object reads (constant/triSurface/)
 REGIONS_STL = "whale_regions.stl"
+#: the flippers' triangles alone (constant/triSurface/), snappyHexMesh's refinement region
+FLIPPERS_STL = "flippers.stl"
 
-__all__ = ["CASE_RECORD", "LENGTH_MISMATCH", "PLUGIN_LIB", "REGIONS_STL", "SOCKET_NAME",
-           "TEMPLATE_DIR", "check_length", "prepare_case", "read_record", "write_json"]
+__all__ = ["CASE_RECORD", "FLIPPERS_STL", "LENGTH_MISMATCH", "PLUGIN_LIB", "REGIONS_STL",
+           "SOCKET_NAME", "TEMPLATE_DIR", "check_length", "prepare_case", "read_record",
+           "write_json"]
 
 
 def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: bool = False,
@@ -79,6 +82,8 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     # second file, as snappyHexMesh makes one patch per solid (whale_body, ...) of a
     # multi-solid STL and the whale must stay one patch
     surface.write_regions_stl(stl.with_name(REGIONS_STL))
+    # the flippers alone: snappyHexMesh's refinement region around them (case.flipper_level)
+    surface.write_regions_stl(stl.with_name(FLIPPERS_STL), only="flippers")
     pts = np.asarray(surface.points)
     params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
                              length=surface.length)

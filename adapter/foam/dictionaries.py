@@ -65,6 +65,12 @@ def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool,
     cm["refinementSurfaces"]["whale"]["level"] = f"({c.refinement[0]} {c.refinement[1]})"
     near = max(0, c.refinement[0] - 1)
     cm["refinementRegions"]["nearWhale"]["levels"] = f"(({near} {near}))"
+    if c.flipper_level > 0:
+        cm["refinementRegions"]["flippers"]["levels"] = (
+            f"(({p.flipper_cell_m!r} {c.flipper_level}))")
+    else:
+        del cm["refinementRegions"]["flippers"]
+        del d["geometry"]["flippers.stl"]
     cm["locationInMesh"] = _vector(p.location_in_mesh)
     d["addLayers"] = c.layers > 0
     lc = d["addLayersControls"]

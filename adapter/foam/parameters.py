@@ -22,7 +22,10 @@ class CaseParameters:
     domain_min, domain_max : (3,) corners of the blockMesh box (m).
     cells : (3,) background cell counts along x, y, z.
     cell_size : (3,) background cell size along x, y, z (m).
-    smallest_cell_m : edge of a cell at the highest surface refinement level (m).
+    smallest_cell_m : edge of a cell at the surface's highest refinement level (m): the
+        automatic time step's cell (the prism layers and the flippers' cells are finer).
+    flipper_cell_m : edge of a cell at ``case.flipper_level`` (m; 0 when none): also the
+        distance from the flippers within which cells are refined to it.
     delta_t : flow time step (s), a binary fraction (a multiple of 2**-k s).
     time_precision : controlDict timePrecision: enough digits to name every time exactly.
     steps_per_write : time steps between writes.
@@ -44,6 +47,7 @@ class CaseParameters:
     cells: tuple
     cell_size: tuple
     smallest_cell_m: float
+    flipper_cell_m: float
     delta_t: float
     time_precision: int
     steps_per_write: int
@@ -95,6 +99,7 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
     cells = np.maximum(1, np.round((dmax - dmin) / cell)).astype(int)
     size = (dmax - dmin) / cells
     smallest = float(size.min()) / 2 ** c.refinement[1]
+    flipper_cell = float(size.min()) / 2 ** c.flipper_level if c.flipper_level > 0 else 0.0
     speed = scene.flow.speed_m_s
     dt = c.dt_s if c.dt_s > 0 else 0.5 * smallest / speed
     write_interval = scene.period_s / c.writes_per_cycle
@@ -121,6 +126,7 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
         cells=tuple(int(v) for v in cells),
         cell_size=tuple(float(v) for v in size),
         smallest_cell_m=smallest,
+        flipper_cell_m=flipper_cell,
         delta_t=dt,
         time_precision=_time_precision(dt),
         steps_per_write=steps_per_write,
