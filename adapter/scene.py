@@ -101,9 +101,8 @@ class Stroke:
     fluke_angle_scale: float = field(default=1.0, metadata={"check": _non_negative})
     #: the fluke angle ramps in from flat over this fraction of the first cycle ("negate")
     fluke_ramp: float = field(default=0.25, metadata={"check": lambda v: 0 <= v <= 4})
-    #: length (fraction of L) behind the tail base over which the fluke goes over from the
-    #: body's own motion to the gate's rigid turn: a bending joint; 0 is the paper's hinge
-    #: (a crease at the tail base; docs/stroke.md)
+    #: length (fraction of L) behind the tail base over which the fluke goes from the body's
+    #: motion to the gate's rigid turn (a bending joint); 0: the paper's hinge (docs/stroke.md)
     fluke_joint: float = field(default=0.0, metadata={"check": lambda v: 0 <= v <= 0.1})
     #: how the stroke turns: "smooth" (continuous wall velocity; the default for coupled
     #: runs) or "negate" (the paper: every velocity negated at the top and bottom)
@@ -172,8 +171,7 @@ class Case:
     background_cell_m: float = field(default=0.0, metadata={"check": _non_negative})
     #: snappyHexMesh surface refinement levels (min, max)
     refinement: tuple = field(default=(2, 4))
-    #: snappyHexMesh level of the cells within one such cell of the flippers (0: none): their
-    #: roots and edges, where the layer stage leaves faces bare, then keep y+ under 300
+    #: snappyHexMesh level of the cells within one such cell of the flippers (0: none)
     flipper_level: int = field(default=5, metadata={"check": lambda v: 0 <= v <= 8})
     #: simulated stroke cycles; end time = cycles / frequency unless end_time_s > 0
     cycles: float = field(default=1.0, metadata={"check": _positive})
@@ -262,6 +260,9 @@ def _describe(value) -> str:
     return f"{value!r} ({type(value).__name__})"
 
 
+_EXPECTED = {str: "a string", bool: "true or false", dict: "a table"}   # taken as they are
+
+
 def _convert(value, annotation, path: str, meta: dict):
     """Check one TOML value against a field's type and metadata, returning the value to store."""
     kind = annotation if isinstance(annotation, type) else typing.get_origin(annotation)
@@ -274,22 +275,17 @@ def _convert(value, annotation, path: str, meta: dict):
     elif kind is int:
         if isinstance(value, bool) or not isinstance(value, int):
             raise SceneError(f"{path}: expected a whole number, got {_describe(value)}")
-    elif kind is str:
-        if not isinstance(value, str):
-            raise SceneError(f"{path}: expected a string, got {_describe(value)}")
-    elif kind is bool:
-        if not isinstance(value, bool):
-            raise SceneError(f"{path}: expected true or false, got {_describe(value)}")
+    elif kind in _EXPECTED:
+        if not isinstance(value, kind):
+            raise SceneError(f"{path}: expected {_EXPECTED[kind]}, got {_describe(value)}")
+        if kind is dict:
+            value = {k: _point(v, f"{path}.{k}") for k, v in value.items()}
     elif kind is tuple:
         if not isinstance(value, (list, tuple)) or not all(
             isinstance(v, int) and not isinstance(v, bool) for v in value
         ):
             raise SceneError(f"{path}: expected a list of whole numbers, got {_describe(value)}")
         value = tuple(value)
-    elif kind is dict:
-        if not isinstance(value, dict):
-            raise SceneError(f"{path}: expected a table, got {_describe(value)}")
-        value = {k: _point(v, f"{path}.{k}") for k, v in value.items()}
     choices = meta.get("choices")
     if choices is not None and value not in choices:
         raise SceneError(f"{path}: expected one of {', '.join(choices)}; got {value!r}")
@@ -343,10 +339,8 @@ def _check_relations(obj, path: str) -> None:
     ):
         raise SceneError(f"{path}.refinement: expected [min, max] levels with 0 <= min <= max <= 8")
     if isinstance(obj, Case) and 0 < obj.flipper_level <= obj.refinement[0]:
-        raise SceneError(
-            f"{path}.flipper_level = {obj.flipper_level} refines nothing: the flippers' surface "
-            f"is already at level {obj.refinement[0]} (refinement min) or finer; give a level "
-            "above it, or 0 for none")
+        raise SceneError(f"{path}.flipper_level = {obj.flipper_level} refines nothing (refinement "
+                         f"min is {obj.refinement[0]}): give a level above it, or 0 for none")
 
 
 def _read_toml(text: str, where: str) -> dict:
@@ -371,9 +365,7 @@ def load_scene(path: str | Path | None = None, preset: str | None = None) -> Sce
     """
     scene = Scene()
     data_dir = DATA_DIR / "scenes"
-    user = {}
-    where = "scene"
-    base_dir = "."
+    user, where, base_dir = {}, "scene", "."
     if path is not None:
         path = Path(path)
         if not path.is_file():

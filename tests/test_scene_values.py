@@ -137,8 +137,8 @@ def test_each_range_at_its_limits(tmp_path, key, ok, bad):
     ("[case]\nrefinement = [3, 9]\n",
      "case.refinement: expected [min, max] levels with 0 <= min <= max <= 8"),
     ("[case]\nrefinement = [2, 4]\nflipper_level = 2\n",
-     "case.flipper_level = 2 refines nothing: the flippers' surface is already at level 2 "
-     "(refinement min) or finer; give a level above it, or 0 for none"),
+     "case.flipper_level = 2 refines nothing (refinement min is 2): give a level above it, "
+     "or 0 for none"),
 ])
 def test_the_relations_between_keys(tmp_path, text, message):
     _refused(tmp_path, text, message)
