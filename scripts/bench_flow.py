@@ -36,10 +36,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from adapter.coupling.store import time_name  # noqa: E402
 from adapter.errors import CaseError  # noqa: E402
 from adapter.foam import loads as ld  # noqa: E402
 from adapter.foam.case import read_record  # noqa: E402
-from adapter.foam.dictionaries import parsed_dict  # noqa: E402
+from adapter.foam.dictionaries import parsed_dict, plugin_lib  # noqa: E402
 from adapter.foam.stepserver import start_server, stop_server  # noqa: E402
 from adapter.foam.tools import foam_env  # noqa: E402
 from adapter.foamfiles import time_dirs  # noqa: E402
@@ -62,7 +63,8 @@ def copy_at(case: Path, time: str, dst: Path, steps: int) -> float:
         src = case / name
         (shutil.copytree if src.is_dir() else shutil.copy)(src, dst / name)
     (dst / "adapter").mkdir()
-    for name in (f"state_{time}.npz", "patch-map.npz"):
+    # the step-server's state at that time (named with 12 digits, store.time_name)
+    for name in (f"state_{time_name(float(time))}.npz", "patch-map.npz"):
         if (case / "adapter" / name).is_file():
             shutil.copy(case / "adapter" / name, dst / "adapter" / name)
     d = parsed_dict(dst / "system" / "controlDict")
@@ -70,8 +72,20 @@ def copy_at(case: Path, time: str, dst: Path, steps: int) -> float:
     d["startFrom"] = "startTime"
     d["startTime"] = time
     d["endTime"] = repr(end)
-    d["writeInterval"] = steps + 1  # nothing written but the end
+    # nothing written: runTime counts from the start time (timeStep from time index 0, so
+    # a write could land mid-run)
+    d["writeControl"] = "runTime"
+    d["writeInterval"] = repr(2 * (end - float(time)))
+    # this checkout's plugin library, not the one the source case was made with
+    lib = [f'"{plugin_lib()}"']
+    if "libs" in d:
+        d["libs"] = lib
+        d["functions"]["loads"]["libs"] = lib
     d.writeFile()
+    d = parsed_dict(dst / "constant" / "dynamicMeshDict")
+    if d["motionSolver"] == "whaleBlendedDisplacement":
+        d["motionSolverLibs"] = lib
+        d.writeFile()
     return end
 
 
