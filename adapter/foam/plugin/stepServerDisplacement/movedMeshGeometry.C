@@ -4,6 +4,7 @@
 \*---------------------------------------------------------------------------*/
 
 #include "movedMeshGeometry.H"
+#include "ListOps.H"
 
 // * * * * * * * * * * * * * Private Member Functions  * * * * * * * * * * * //
 
@@ -92,21 +93,8 @@ Foam::movedMeshGeometry::movedMeshGeometry
     const pointField& p
 )
 :
-    faceCentres_(mesh.nFaces()),
-    faceAreas_(mesh.nFaces()),
-    cellCentres_(mesh.nCells()),
-    cellVolumes_(mesh.nCells())
-{
-    const faceList& fs = mesh.faces();
-    forAll(fs, facei)
-    {
-        makeFace(fs[facei], p, facei);
-    }
-    for (label celli = 0; celli < mesh.nCells(); ++celli)
-    {
-        makeCell(mesh, celli);
-    }
-}
+    movedMeshGeometry(mesh, p, identity(mesh.nFaces()), identity(mesh.nCells()))
+{}
 
 
 Foam::movedMeshGeometry::movedMeshGeometry
