@@ -171,8 +171,11 @@ class Case:
     background_cell_m: float = field(default=0.0, metadata={"check": _non_negative})
     #: snappyHexMesh surface refinement levels (min, max)
     refinement: tuple = field(default=(2, 4))
-    #: snappyHexMesh level of the cells within one such cell of the flippers (0: none)
+    #: snappyHexMesh level of the cells within one such cell of the flippers (0: none), and of
+    #: the flukes' blade (its part beyond fluke_clearance body lengths behind the tail base)
     flipper_level: int = field(default=5, metadata={"check": lambda v: 0 <= v <= 8})
+    fluke_level: int = field(default=5, metadata={"check": lambda v: 0 <= v <= 8})
+    fluke_clearance: float = field(default=0.05, metadata={"check": _non_negative})
     #: simulated stroke cycles; end time = cycles / frequency unless end_time_s > 0
     cycles: float = field(default=1.0, metadata={"check": _positive})
     end_time_s: float = field(default=0.0, metadata={"check": _non_negative})
@@ -318,12 +321,10 @@ def _build(cls, table, path: str, start=None):
         if key not in known or key == "base_dir":
             allowed = ", ".join(k for k in known if k != "base_dir")
             raise SceneError(f"{sub}: unknown key; allowed here: {allowed}")
-        f = known[key]
-        hint = hints[key]
-        if dataclasses.is_dataclass(hint):
-            values[key] = _build(hint, value, sub, start=getattr(start, key, None))
+        if dataclasses.is_dataclass(hints[key]):
+            values[key] = _build(hints[key], value, sub, start=getattr(start, key, None))
         else:
-            values[key] = _convert(value, hint, sub, dict(f.metadata))
+            values[key] = _convert(value, hints[key], sub, dict(known[key].metadata))
     obj = dataclasses.replace(start, **values) if start is not None else cls(**values)
     _check_relations(obj, path)
     return obj
@@ -334,13 +335,13 @@ def _check_relations(obj, path: str) -> None:
         raise SceneError(f"{path}.head_node must lie ahead of (be smaller than) {path}.pivot")
     if isinstance(obj, Regions) and not obj.head_end < obj.tail_start:
         raise SceneError(f"{path}.head_end must be smaller than {path}.tail_start")
-    if isinstance(obj, Case) and (
-        len(obj.refinement) != 2 or not 0 <= obj.refinement[0] <= obj.refinement[1] <= 8
-    ):
+    ref = obj.refinement if isinstance(obj, Case) else (0, 0)
+    if len(ref) != 2 or not 0 <= ref[0] <= ref[1] <= 8:
         raise SceneError(f"{path}.refinement: expected [min, max] levels with 0 <= min <= max <= 8")
-    if isinstance(obj, Case) and 0 < obj.flipper_level <= obj.refinement[0]:
-        raise SceneError(f"{path}.flipper_level = {obj.flipper_level} refines nothing (refinement "
-                         f"min is {obj.refinement[0]}): give a level above it, or 0 for none")
+    for key in ("flipper_level", "fluke_level") if isinstance(obj, Case) else ():
+        if 0 < getattr(obj, key) <= obj.refinement[0]:
+            raise SceneError(f"{path}.{key} = {getattr(obj, key)} refines nothing (refinement "
+                             f"min is {obj.refinement[0]}): give a level above it, or 0 for none")
 
 
 def _read_toml(text: str, where: str) -> dict:
@@ -370,9 +371,8 @@ def load_scene(path: str | Path | None = None, preset: str | None = None) -> Sce
         path = Path(path)
         if not path.is_file():
             raise SceneError(f"scene file {path} does not exist; give an existing TOML file")
-        user = _read_toml(path.read_text(), str(path))
-        where = str(path)
-        base_dir = str(path.resolve().parent)
+        where, base_dir = str(path), str(path.resolve().parent)
+        user = _read_toml(path.read_text(), where)
         file_preset = user.pop("preset", None)
         if file_preset is not None:
             if preset is not None and preset != file_preset:

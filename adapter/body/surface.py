@@ -10,6 +10,7 @@ import numpy as np
 from adapter.body.meshfile import write_region_stl, write_surface
 from adapter.body.polygons import triangulate, unique_edges
 from adapter.body.regions import BODY, FLIPPERS, FLUKES, REGIONS, flipper_triangles
+from adapter.errors import GeometryError
 
 
 @dataclass
@@ -104,6 +105,21 @@ class WhaleSurface:
             raise ValueError(f"no region {only!r}: the regions are {', '.join(REGIONS)}")
         mine = np.where(regions == REGIONS.index(only), 0, -1)
         write_region_stl(path, self.points, self.triangles, mine, names=(only,))
+
+    def write_fluke_blade_stl(self, path: str | Path, clearance: float) -> None:
+        """An ASCII STL of the flukes' blade (one solid ``flukeBlade``): the flukes' triangles
+        (:meth:`triangle_regions`) whose centroid lies more than ``clearance`` (fraction of the
+        body length) behind the tail base, so that the hinge is left out."""
+        centroid_x = self.points[self.triangles].mean(axis=1)[:, 0]
+        s_c = (centroid_x - self.origin[0]) / self.length
+        behind = s_c > float(self.s[self.landmarks["tail_base"]]) + clearance
+        blade = (self.triangle_regions() == FLUKES) & behind
+        if not blade.any():
+            raise GeometryError(f"no fluke triangle lies {clearance} body lengths behind the "
+                                "tail base: give a smaller case.fluke_clearance, or "
+                                "case.fluke_level = 0 for no finer cells at the flukes")
+        write_region_stl(path, self.points, self.triangles, np.where(blade, 0, -1),
+                         names=("flukeBlade",))
 
     def write(self, path: str | Path, point_data: dict | None = None) -> None:
         """Write the surface; the format follows the suffix (STL, OBJ, VTK, VTU, VTP, PLY ...).

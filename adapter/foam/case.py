@@ -36,10 +36,11 @@ CASE_RECORD = "adapter-case.json"
 REGIONS_STL = "whale_regions.stl"
 #: the flippers' triangles alone (constant/triSurface/), snappyHexMesh's refinement region
 FLIPPERS_STL = "flippers.stl"
+FLUKE_BLADE_STL = "flukeBlade.stl"
 
-__all__ = ["CASE_RECORD", "FLIPPERS_STL", "LENGTH_MISMATCH", "PLUGIN_LIB", "REGIONS_STL",
-           "SOCKET_NAME", "TEMPLATE_DIR", "check_length", "prepare_case", "read_record",
-           "write_json"]
+__all__ = ["CASE_RECORD", "FLIPPERS_STL", "FLUKE_BLADE_STL", "LENGTH_MISMATCH", "PLUGIN_LIB",
+           "REGIONS_STL", "SOCKET_NAME", "TEMPLATE_DIR", "check_length", "prepare_case",
+           "read_record", "write_json"]
 
 
 def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: bool = False,
@@ -84,6 +85,9 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     surface.write_regions_stl(stl.with_name(REGIONS_STL))
     # the flippers alone: snappyHexMesh's refinement region around them (case.flipper_level)
     surface.write_regions_stl(stl.with_name(FLIPPERS_STL), only="flippers")
+    # the flukes' blade behind the hinge: its refinement region (case.fluke_level)
+    if scene.case.fluke_level > 0:
+        surface.write_fluke_blade_stl(stl.with_name(FLUKE_BLADE_STL), scene.case.fluke_clearance)
     pts = np.asarray(surface.points)
     params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
                              length=surface.length)

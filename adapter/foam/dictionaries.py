@@ -65,12 +65,14 @@ def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool,
     cm["refinementSurfaces"]["whale"]["level"] = f"({c.refinement[0]} {c.refinement[1]})"
     near = max(0, c.refinement[0] - 1)
     cm["refinementRegions"]["nearWhale"]["levels"] = f"(({near} {near}))"
-    if c.flipper_level > 0:
-        cm["refinementRegions"]["flippers"]["levels"] = (
-            f"(({p.flipper_cell_m!r} {c.flipper_level}))")
-    else:
-        del cm["refinementRegions"]["flippers"]
-        del d["geometry"]["flippers.stl"]
+    # the finer cells at the flippers and the flukes' blade (removed at level 0)
+    for name, level, cell in (("flippers", c.flipper_level, p.flipper_cell_m),
+                              ("flukeBlade", c.fluke_level, p.fluke_cell_m)):
+        if level > 0:
+            cm["refinementRegions"][name]["levels"] = f"(({cell!r} {level}))"
+        else:
+            del cm["refinementRegions"][name]
+            del d["geometry"][f"{name}.stl"]
     cm["locationInMesh"] = _vector(p.location_in_mesh)
     d["addLayers"] = c.layers > 0
     lc = d["addLayersControls"]

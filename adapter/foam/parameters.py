@@ -26,6 +26,7 @@ class CaseParameters:
         automatic time step's cell (the prism layers and the flippers' cells are finer).
     flipper_cell_m : edge of a cell at ``case.flipper_level`` (m; 0 when none): also the
         distance from the flippers within which cells are refined to it.
+    fluke_cell_m : the same for ``case.fluke_level`` and the flukes' blade.
     delta_t : flow time step (s), a binary fraction (a multiple of 2**-k s).
     time_precision : controlDict timePrecision: enough digits to name every time exactly.
     steps_per_write : time steps between writes.
@@ -48,6 +49,7 @@ class CaseParameters:
     cell_size: tuple
     smallest_cell_m: float
     flipper_cell_m: float
+    fluke_cell_m: float
     delta_t: float
     time_precision: int
     steps_per_write: int
@@ -100,6 +102,7 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
     size = (dmax - dmin) / cells
     smallest = float(size.min()) / 2 ** c.refinement[1]
     flipper_cell = float(size.min()) / 2 ** c.flipper_level if c.flipper_level > 0 else 0.0
+    fluke_cell = float(size.min()) / 2 ** c.fluke_level if c.fluke_level > 0 else 0.0
     speed = scene.flow.speed_m_s
     dt = c.dt_s if c.dt_s > 0 else 0.5 * smallest / speed
     write_interval = scene.period_s / c.writes_per_cycle
@@ -127,6 +130,7 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
         cell_size=tuple(float(v) for v in size),
         smallest_cell_m=smallest,
         flipper_cell_m=flipper_cell,
+        fluke_cell_m=fluke_cell,
         delta_t=dt,
         time_precision=_time_precision(dt),
         steps_per_write=steps_per_write,
