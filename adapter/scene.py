@@ -172,10 +172,10 @@ class Case:
     #: snappyHexMesh surface refinement levels (min, max)
     refinement: tuple = field(default=(2, 4))
     #: snappyHexMesh level of the cells within one such cell of the flippers (0: none), and of
-    #: the flukes' blade (its part beyond fluke_clearance body lengths behind the tail base)
+    #: the flukes' blade (its part beyond fluke_clearance such cells behind the tail base)
     flipper_level: int = field(default=5, metadata={"check": lambda v: 0 <= v <= 8})
     fluke_level: int = field(default=5, metadata={"check": lambda v: 0 <= v <= 8})
-    fluke_clearance: float = field(default=0.05, metadata={"check": _non_negative})
+    fluke_clearance: float = field(default=12.0, metadata={"check": _non_negative})
     #: simulated stroke cycles; end time = cycles / frequency unless end_time_s > 0
     cycles: float = field(default=1.0, metadata={"check": _positive})
     end_time_s: float = field(default=0.0, metadata={"check": _non_negative})

@@ -71,6 +71,9 @@ def test_parameters_domain_and_cells():
     assert p.flipper_cell_m == pytest.approx(min(p.cell_size) / 2 ** c.flipper_level)
     assert P.case_parameters(scene.replace(case={"flipper_level": 0}), lo, hi).flipper_cell_m \
         == 0.0
+    # the same at the flukes' blade
+    assert p.fluke_cell_m == pytest.approx(min(p.cell_size) / 2 ** c.fluke_level)
+    assert P.case_parameters(scene.replace(case={"fluke_level": 0}), lo, hi).fluke_cell_m == 0.0
     # the point snappyHexMesh keeps lies in the water: in the box, upstream of the whale
     assert p.domain_min[0] < p.location_in_mesh[0] < lo[0]
     assert p.ranks == c.ranks
@@ -174,8 +177,10 @@ def test_prepare_case_writes_readable_dictionaries(tmp_path, smoke, smoke_surfac
     assert [float(v) for v in cm["locationInMesh"]] == pytest.approx(p.location_in_mesh)
     assert sh["addLayers"] in (False, "false")
     # no flipper refinement in the smoke preset: neither the region nor its surface
-    assert smoke.case.flipper_level == 0
+    assert smoke.case.flipper_level == 0 and smoke.case.fluke_level == 0
     assert "flippers" not in cm["refinementRegions"] and "flippers.stl" not in sh["geometry"]
+    assert "flukeBlade" not in cm["refinementRegions"] and "flukeBlade.stl" not in sh["geometry"]
+    assert not (case / "constant" / "triSurface" / C.FLUKE_BLADE_STL).exists()
 
     dp = _read(case / "system" / "decomposeParDict")
     assert int(dp["numberOfSubdomains"]) == 1
@@ -224,14 +229,22 @@ def test_prepare_case_default_is_turbulent_and_static_option(tmp_path, smoke_sur
     # the flippers' refinement region: cells within one cell of flipper_level of the flippers
     p = json.loads((case / C.CASE_RECORD).read_text())["parameters"]
     cm = _read(case / "system" / "snappyHexMeshDict")["castellatedMeshControls"]
-    flippers = cm["refinementRegions"]["flippers"]
-    assert flippers["mode"] == "distance"
-    (distance, level), = flippers["levels"]
-    assert level == scene.case.flipper_level
-    assert distance == pytest.approx(min(p["cell_size"]) / 2 ** level)
     geometry = _read(case / "system" / "snappyHexMeshDict")["geometry"]
-    assert geometry["flippers.stl"]["name"] == "flippers"
-    assert (case / "constant" / "triSurface" / C.FLIPPERS_STL).is_file()
+    # and the flukes' blade's, fluke_level
+    for name, key, stl in (("flippers", "flipper_level", C.FLIPPERS_STL),
+                           ("flukeBlade", "fluke_level", C.FLUKE_BLADE_STL)):
+        region = cm["refinementRegions"][name]
+        assert region["mode"] == "distance"
+        (distance, level), = region["levels"]
+        assert level == getattr(scene.case, key)
+        assert distance == pytest.approx(min(p["cell_size"]) / 2 ** level)
+        assert geometry[stl]["name"] == name
+        assert (case / "constant" / "triSurface" / stl).is_file()
+    # the blade begins fluke_clearance of its cells behind the tail base
+    smoke_surface.write_fluke_blade_stl(tmp_path / "blade.stl",
+                                        scene.case.fluke_clearance * distance)
+    assert (tmp_path / "blade.stl").read_bytes() == \
+        (case / "constant" / "triSurface" / C.FLUKE_BLADE_STL).read_bytes()
     tp = _read(case / "constant" / "turbulenceProperties")
     assert tp["simulationType"] == "RAS"
     assert tp["RAS"]["RASModel"] == "kOmegaSST"
@@ -371,29 +384,44 @@ def _whale_faces(case):
 
 @pytest.mark.openfoam
 @needs_openfoam
-def test_the_flippers_get_finer_cells(tmp_path, smoke, smoke_surface, smoke_mesh):
-    """case.flipper_level one above the smoke surface's finest level (2): each level halves a
-    cell's edge, so the whale's faces on the flippers shrink to about a quarter of their
-    area on the same smoke mesh without it; faces beyond the refinement's buffer (3 cells of
-    level 2 around the level-3 cells, snappyHexMesh's nCellsBetweenLevels) keep their size."""
+@pytest.mark.parametrize("key, stl, solid", [("flipper_level", C.FLIPPERS_STL, "flippers"),
+                                             ("fluke_level", C.FLUKE_BLADE_STL, "flukeBlade")])
+def test_the_flippers_and_flukes_get_finer_cells(tmp_path, smoke, smoke_surface, smoke_mesh,
+                                                 key, stl, solid):
+    """case.flipper_level (fluke_level) one above the smoke surface's finest level (2): each
+    level halves a cell's edge, so the whale's faces on the flippers shrink to about a quarter
+    of their area on the same smoke mesh without it; the flukes' blade (at most 0.31 m thick),
+    which the plain smoke mesh's 1 m faces miss altogether, gets faces. Faces beyond the
+    refinement's buffer (3 cells of level 2 around the level-3 cells, snappyHexMesh's
+    nCellsBetweenLevels) keep their size."""
     from scipy.spatial import cKDTree
 
     plain, _ = smoke_mesh
     case = tmp_path / "case"
-    C.prepare_case(smoke.replace(case={"flipper_level": 3}), case, surface=smoke_surface,
-                   static_whale=True)
+    # (half a level-3 cell of clearance: the smoke flukes are 1.8 m long, the cells 0.49 m)
+    C.prepare_case(smoke.replace(case={key: 3, "fluke_clearance": 0.5}), case,
+                   surface=smoke_surface, static_whale=True)
     M.mesh_case(case)
-    flippers = meshfile.read_stl_solids(case / "constant" / "triSurface" / C.FLIPPERS_STL)
-    near = cKDTree(flippers["flippers"].reshape(-1, 3))
+    region = meshfile.read_stl_solids(case / "constant" / "triSurface" / stl)
+    # points all over the region's triangles (vertices, edge midpoints, centroid): distances
+    # to its surface, not to its vertices alone
+    tri = region[solid]
+    weights = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5, 0, .5],
+                        [1 / 3, 1 / 3, 1 / 3]])
+    near = cKDTree(np.einsum("sk,tkd->tsd", weights, tri).reshape(-1, 3))
     cell = min(C.read_record(case)["parameters"]["cell_size"])   # level 0
-    median = {}
+    on, far = {}, {}
     for name, folder in (("fine", case), ("plain", plain)):
         centres, areas = _whale_faces(folder)
         distance = near.query(centres)[0]
-        median[name] = (np.median(areas[distance < cell / 2**3]),
-                        np.median(areas[distance > 3 * cell / 2**2 + cell / 2**2]))
-    assert median["fine"][0] < 0.4 * median["plain"][0]
-    assert median["fine"][1] == pytest.approx(median["plain"][1], rel=0.02)
+        on[name] = areas[distance < cell / 2**3]
+        far[name] = np.median(areas[distance > 3 * cell / 2**2 + cell / 2**2])
+    if key == "flipper_level":
+        assert np.median(on["fine"]) < 0.4 * np.median(on["plain"])
+    else:   # no face of the plain mesh on the blade; the fine ones smaller than level 2's
+        assert on["plain"].size == 0 and on["fine"].size >= 20
+        assert np.median(on["fine"]) < 0.4 * (cell / 2**2) ** 2
+    assert far["fine"] == pytest.approx(far["plain"], rel=0.02)
 
 
 @pytest.mark.openfoam

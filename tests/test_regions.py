@@ -10,6 +10,7 @@ import pytest
 
 from adapter.body import meshfile, regions
 from adapter.body.surface import WhaleSurface
+from adapter.errors import GeometryError
 from adapter.foam import loads as ld
 from adapter.foam.case import FLIPPERS_STL, REGIONS_STL, prepare_case
 from adapter.foam.swimrun import COST_ROWS
@@ -89,6 +90,27 @@ def test_prepared_case_has_the_three_solids_and_the_regions_entry(smoke_scene, s
     np.testing.assert_array_equal(alone["flippers"], p[tri[reg == regions.FLIPPERS]])
     with pytest.raises(ValueError, match="no region 'fins': the regions are body, flippers"):
         smoke_surface.write_regions_stl(tmp_path / "fins.stl", only="fins")
+
+
+def test_the_flukes_blade_leaves_out_the_hinge(tmp_path, smoke_surface):
+    """flukeBlade.stl (case.fluke_level's region): the flukes' triangles whose centroid lies
+    more than the clearance (m) behind the tail base, by the landmark's own s; clearance 0 is
+    all of the flukes, and a clearance past the fluke tips is refused."""
+    p, tri = smoke_surface.points, smoke_surface.triangles
+    centroid_s = (p[tri].mean(axis=1)[:, 0] - smoke_surface.origin[0]) / smoke_surface.length
+    tail_base = smoke_surface.s[smoke_surface.landmarks["tail_base"]]
+    flukes = smoke_surface.triangle_regions() == regions.FLUKES
+    for clearance in (0.0, 0.3, 0.75):
+        smoke_surface.write_fluke_blade_stl(tmp_path / "blade.stl", clearance)
+        blade = meshfile.read_stl_solids(tmp_path / "blade.stl")
+        assert list(blade) == ["flukeBlade"]
+        want = flukes & (centroid_s > tail_base + clearance / smoke_surface.length)
+        assert 0 < want.sum() <= flukes.sum()
+        np.testing.assert_array_equal(blade["flukeBlade"], p[tri[want]])
+    assert want.sum() < flukes.sum()
+    with pytest.raises(GeometryError, match="no fluke triangle lies 3 m behind the tail base: "
+                       "give a smaller case.fluke_clearance"):
+        smoke_surface.write_fluke_blade_stl(tmp_path / "none.stl", 3.0)
 
 
 def test_region_figures_add_up_to_the_totals(tmp_path):

@@ -108,6 +108,8 @@ def test_good_values_are_stored_as_their_kind(tmp_path):
     ("case.max_non_orthogonality", [1e-9, 89.99], [0.0, 90.0]),
     ("case.layers", [0, 20], [-1, 21]),
     ("case.flipper_level", [0, 8], [-1, 9]),
+    ("case.fluke_level", [0, 8], [-1, 9]),
+    ("case.fluke_clearance", [0.0, 0.2], [-0.01]),
     ("case.layer_expansion", [1.0, 3.0], [0.99, 3.01]),
     ("case.writes_per_cycle", [1], [0]),
     ("case.ranks", [1], [0]),
@@ -138,6 +140,9 @@ def test_each_range_at_its_limits(tmp_path, key, ok, bad):
      "case.refinement: expected [min, max] levels with 0 <= min <= max <= 8"),
     ("[case]\nrefinement = [2, 4]\nflipper_level = 2\n",
      "case.flipper_level = 2 refines nothing (refinement min is 2): give a level above it, "
+     "or 0 for none"),
+    ("[case]\nrefinement = [2, 4]\nfluke_level = 1\n",
+     "case.fluke_level = 1 refines nothing (refinement min is 2): give a level above it, "
      "or 0 for none"),
 ])
 def test_the_relations_between_keys(tmp_path, text, message):

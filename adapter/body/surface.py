@@ -106,17 +106,17 @@ class WhaleSurface:
         mine = np.where(regions == REGIONS.index(only), 0, -1)
         write_region_stl(path, self.points, self.triangles, mine, names=(only,))
 
-    def write_fluke_blade_stl(self, path: str | Path, clearance: float) -> None:
+    def write_fluke_blade_stl(self, path: str | Path, clearance_m: float) -> None:
         """An ASCII STL of the flukes' blade (one solid ``flukeBlade``): the flukes' triangles
-        (:meth:`triangle_regions`) whose centroid lies more than ``clearance`` (fraction of the
-        body length) behind the tail base, so that the hinge is left out."""
+        (:meth:`triangle_regions`) whose centroid lies more than ``clearance_m`` (m, along the
+        body) behind the tail base, so that the hinge is left out."""
         centroid_x = self.points[self.triangles].mean(axis=1)[:, 0]
         s_c = (centroid_x - self.origin[0]) / self.length
-        behind = s_c > float(self.s[self.landmarks["tail_base"]]) + clearance
+        behind = s_c > float(self.s[self.landmarks["tail_base"]]) + clearance_m / self.length
         blade = (self.triangle_regions() == FLUKES) & behind
         if not blade.any():
-            raise GeometryError(f"no fluke triangle lies {clearance} body lengths behind the "
-                                "tail base: give a smaller case.fluke_clearance, or "
+            raise GeometryError(f"no fluke triangle lies {clearance_m:.4g} m behind the tail "
+                                "base: give a smaller case.fluke_clearance, or "
                                 "case.fluke_level = 0 for no finer cells at the flukes")
         write_region_stl(path, self.points, self.triangles, np.where(blade, 0, -1),
                          names=("flukeBlade",))

@@ -85,12 +85,14 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     surface.write_regions_stl(stl.with_name(REGIONS_STL))
     # the flippers alone: snappyHexMesh's refinement region around them (case.flipper_level)
     surface.write_regions_stl(stl.with_name(FLIPPERS_STL), only="flippers")
-    # the flukes' blade behind the hinge: its refinement region (case.fluke_level)
-    if scene.case.fluke_level > 0:
-        surface.write_fluke_blade_stl(stl.with_name(FLUKE_BLADE_STL), scene.case.fluke_clearance)
     pts = np.asarray(surface.points)
     params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
                              length=surface.length)
+    # the flukes' blade, case.fluke_clearance of its cells behind the hinge (so that the
+    # hinge's cells are alike, in cells, on every mesh of the flow study): its refinement region
+    if scene.case.fluke_level > 0:
+        surface.write_fluke_blade_stl(stl.with_name(FLUKE_BLADE_STL),
+                                      scene.case.fluke_clearance * params.fluke_cell_m)
     decomposition = choose_decomposition(case, scene.case.decomposition, scene.base_dir)
     write_dictionaries(case, scene, params, static_whale, decomposition)
     tail_base_s = float(surface.s[surface.landmarks["tail_base"]])
