@@ -8,6 +8,7 @@ mesh motion (its check stopping a run before the mesh inverts).
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import shutil
@@ -138,6 +139,22 @@ def test_log_watch_reads_the_blended_motions_figures():
         watch.feed(f"whaleBlendedDisplacement: the new mesh: Min volume = {vol}. Total volume ="
                    f" 1000. Mesh non-orthogonality Max: {angle} average: 9.1 (5 of 9 cells moved)")
     assert (watch.min_volume, watch.max_non_orth, watch.last_non_orth) == (2e-6, 64.5, 63.0)
+
+
+def test_a_static_mesh_reports_no_motion_figures_not_nan(tmp_path):
+    # a gliding run's log: steps, but no mesh motion and so no non-orthogonality line
+    watch = LG.LogWatch(Path("unused"))
+    for i in range(4):
+        watch.feed(f"Time = {0.1 * (i + 1):g}")
+        watch.feed(f"ExecutionTime = {0.5 * (i + 1):g} s  ClockTime = {i + 1} s")
+    out = io.StringIO()
+    LG.Progress(end_time=1.0, start_time=0.0, stream=out).show(watch, final=True)
+    assert "static mesh" in out.getvalue() and "nan" not in out.getvalue()
+    record = {"period_s": 1.0, "parameters": {"delta_t": 0.1}, "mesh": {"cells": 10}}
+    summary = S.summarise(tmp_path, watch, record, ranks=1, flow_wall=2.0, wall=3.0)
+    text = json.dumps(summary, allow_nan=False)  # strict JSON: raises on a NaN anywhere
+    assert json.loads(text)["worst_cell_quality"]["max_non_orthogonality_deg"] is None
+    assert summary["cpu_s_per_step"] == pytest.approx(0.5)
 
 
 def test_smoke_preset_is_small(smoke, smoke_surface):

@@ -203,8 +203,9 @@ class Progress:
         per_step = (now - self.t_wall) / steps
         remaining = (self.end - t) / max(t - self.start, 1e-12) * (now - self.t_wall)
         line = (f"pimpleFoam  t = {t:.4g} / {self.end:.4g} s  step {steps}  "
-                f"{per_step:.2f} s/step  ETA {remaining:.0f} s  "
-                f"non-orth {watch.last_non_orth:.1f} deg (max {watch.max_non_orth:.1f})")
+                f"{per_step:.2f} s/step  ETA {remaining:.0f} s  " + (
+                    "static mesh" if math.isnan(watch.max_non_orth) else
+                    f"non-orth {watch.last_non_orth:.1f} deg (max {watch.max_non_orth:.1f})"))
         if line == self.last_line and not final:
             return
         self.last_line = line

@@ -89,8 +89,17 @@ def summarise(case: Path, watch: LogWatch, record: dict, ranks: int, flow_wall: 
         "flow_wall_s": round(flow_wall, 2),
         "wall_s": round(wall, 2),
     }
-    return {k: (None if isinstance(v, float) and math.isnan(v) else v)
-            for k, v in summary.items()}
+    return _nan_to_none(summary)
+
+
+def _nan_to_none(value):
+    """``value`` with every NaN float, nested ones included, as None: strict JSON has no NaN,
+    and a figure that was never measured (the motion of a static mesh) is absent, not a number."""
+    if isinstance(value, dict):
+        return {k: _nan_to_none(v) for k, v in value.items()}
+    if isinstance(value, float) and math.isnan(value):
+        return None
+    return value
 
 
 #: the rows of :func:`format_summary`: (label, key of the summary (a/b for nested), format);
