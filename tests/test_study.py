@@ -280,3 +280,38 @@ def test_oscillating_or_diverging_meshes_are_not_extrapolated():
     # monotone: e21 = 10, e32 = 20 at r = 1.3: p = ln 2 / ln 1.3, f_ext = 1000 - 10 / (2 - 1)
     assert power["convergence"] == "monotone" and power["reference"] == "extrapolated"
     assert power["extrapolated"] == pytest.approx(990.0, rel=1e-6)
+
+
+def test_the_chooser_counts_the_band_of_an_unextrapolated_value_and_refuses_divergence():
+    """A mesh is never "0 % off" its own value: where the three oscillate, every mesh's error
+    is its difference from mesh 1 plus mesh 1's band (half the range); where one figure
+    diverges, no mesh is vouched for (the real default study: drag 661 / 690 / 695 N)."""
+    h = {1: 1.0, 2: 1.3, 3: 1.69}
+
+    def study(drag, fx, power):
+        cases = {f"mesh-{k}/case": {"background_cell_m": h[k], "gliding_drag": drag[k - 1],
+                                    "swimming_fx": fx[k - 1], "swimming_power": power[k - 1],
+                                    "cells": 1000 * k, "wall_s_per_cycle": 10.0 / k}
+                 for k in h}
+        return {"cases": cases, "meshes": A.mesh_study(
+            {k: cases[f"mesh-{k}/case"] for k in h})}
+
+    # all three oscillate: 100, 97, 104 (R = -3/7): band 3.5; mesh 2 is 3 + 3.5 off, mesh 3 4 + 3.5
+    osc = study([100.0, 97.0, 104.0], [-100.0, -97.0, -104.0], [1000.0, 970.0, 1040.0])
+    assert all(g["convergence"] == "oscillatory" for g in osc["meshes"]["figures"].values())
+    assert A.choose_flow_mesh(osc, 0.036)["mesh"] == 1
+    assert A.choose_flow_mesh(osc, 0.034)["mesh"] is None
+    assert A.choose_flow_mesh(osc, 0.066)["mesh"] == 2
+    chosen = A.choose_flow_mesh(osc, 0.076)
+    assert chosen["mesh"] == 3 and chosen["worst_difference"] == pytest.approx(0.075)
+    # the table gives Celik's GCI of an oscillating figure beside its band: p from |R| = 3/7
+    p = math.log(7 / 3) / math.log(1.3)
+    gci = 1.25 * 0.03 / (1.3**p - 1)
+    table = R.format_study({**osc, "cases": {k: {**c, "cells": 1000}
+                                             for k, c in osc["cases"].items()}})
+    assert f"band +-35; Celik's GCI from |R| {gci:.2%} (p {p:.2f})" in table
+    # one figure diverges: nothing can be vouched for, whatever the tolerance
+    div = study([660.7, 690.0, 694.5], [-100.0, -97.0, -104.0], [4149.5, 4044.1, 4261.8])
+    report = A.choose_flow_mesh(div, 0.5)
+    assert report["mesh"] is None and report["divergent"] == ["gliding drag (N)"]
+    assert report["worst_difference"] == pytest.approx((694.5 - 660.7) / 660.7)

@@ -215,17 +215,36 @@ def finite(obj):
     return obj
 
 
+def mesh_error(g: dict, k: int) -> float:
+    """Mesh ``k``'s error estimate for figure ``g`` of the mesh study (a fraction of its scale):
+    its difference from the extrapolated value, or, when the three meshes oscillate (no
+    extrapolation: the reference is mesh 1's own value), that difference plus mesh 1's band,
+    half the range of the three (Stern et al. 2001), so that mesh 1 is not "0 % off" its own
+    value."""
+    d = g["difference"][str(k)]
+    if g.get("reference") == "extrapolated":
+        return d
+    return d + 0.5 * g["spread_abs"] / g["scale"]
+
+
 def choose_flow_mesh(study: dict, tolerance: float) -> dict:
     """The coarsest mesh of a finished study whose figures all lie within ``tolerance`` (a
-    fraction of each figure's scale: mean Fx of the gliding drag) of the extrapolated values;
-    None when even mesh 1 does not, with the cell size the worst figure would need (from its
-    observed order)."""
+    fraction of each figure's scale: mean Fx of the gliding drag) of their best values
+    (:func:`mesh_error`); None when even mesh 1 does not, with the cell size the worst figure
+    would need (from its observed order), or when a figure diverges over the three meshes
+    (``divergent``: its error is unknown; the spread of the three is a lower bound)."""
     ms = study.get("meshes")
     if not ms or not ms.get("figures"):
         raise AdapterError("the study has no finished mesh study (study.json 'meshes')")
     figs = ms["figures"]
+    divergent = [g["label"] for g in figs.values() if g["convergence"] == "divergent"]
+    if divergent:
+        return {"mesh": None, "tolerance": tolerance, "divergent": divergent,
+                "worst_difference": max(g["spread_abs"] / g["scale"] for g in figs.values()
+                                        if g["convergence"] == "divergent"),
+                "background_cell_m_needed": None}
     for k in (3, 2, 1):
-        worst = max(g["difference"][str(k)] for g in figs.values())
+        worst = max(mesh_error(g, k) for g in figs.values())
         if worst <= tolerance:
             r = study["cases"][f"mesh-{k}/case"]
             return {"mesh": k, "worst_difference": worst, "cells": r["cells"],
@@ -234,10 +253,10 @@ def choose_flow_mesh(study: dict, tolerance: float) -> dict:
     need = None
     r1 = study["cases"]["mesh-1/case"]
     for g in figs.values():
-        d = g["difference"]["1"]
+        d = mesh_error(g, 1)
         if d > tolerance and g.get("p"):
             h = r1["background_cell_m"] * (tolerance / d) ** (1 / g["p"])
             need = h if need is None else min(need, h)
     return {"mesh": None, "tolerance": tolerance,
-            "worst_difference": max(g["difference"]["1"] for g in figs.values()),
+            "worst_difference": max(mesh_error(g, 1) for g in figs.values()),
             "background_cell_m_needed": need}

@@ -84,6 +84,9 @@ def format_study(study: dict) -> str:
             band = g.get("band_mesh2_abs")
             note = ("" if band is None or used else
                     f"  band +-{band:.3g}{' (at least)' if g.get('band_is_lower_bound') else ''}")
+            if g["convergence"] == "oscillatory" and g.get("gci_fine") is not None:
+                # Celik et al.'s procedure takes p from |R| for an oscillating sequence
+                note += f"; Celik's GCI from |R| {g['gci_fine']:.2%} (p {g['p']:.2f})"
             lines.append(f"  {g['label']:<22} {g['convergence']:<11} p {p:>5}  extrapolated "
                          f"{ext:>9}  GCI(mesh 1) {gf}{note}")
     ts = study.get("time_step")
