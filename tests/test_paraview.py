@@ -317,3 +317,36 @@ def test_animation_and_state(which, request):
         assert report["p_unit"] == "Pa" and report["rho_kg_m3"] == 1025.0
         assert "p (Pa)" in report["p_title"]
         assert "whale p in Pa" in state
+
+
+@needs_paraview
+def test_the_pressure_colours_span_the_pictures_times(case_report, tmp_path):
+    """The whale's pressure is coloured over the pictures' times, not over every written time
+    (the start-up's accelerating inflow lifts the default case's whole patch by 40 kPa, which
+    left the pictures of the periodic state one colour); the range over all times stays in
+    report.json. Truth: the patch's point pressure read by pyvista (VTK's OpenFOAM reader,
+    as ParaView's), times rho."""
+    import pyvista as pv
+
+    from adapter.scene import load_scene
+
+    case, _ = case_report
+    rho = load_scene(preset="smoke").flow.rho_kg_m3
+    reader = pv.OpenFOAMReader(str(case / "case.foam"))
+    reader.disable_all_patch_arrays()
+    reader.enable_patch_array("patch/whale")
+    reader.disable_patch_array("internalMesh")
+    p = {}
+    for t in reader.time_values[1:]:
+        reader.set_active_time_value(t)
+        p[t] = rho * np.asarray(reader.read()["boundary"]["whale"].point_data["p"])
+    first = min(p)
+    shown = float(np.abs(p[first]).max())
+    everywhere = (min(v.min() for v in p.values()), max(v.max() for v in p.values()))
+    # the control: the first written time alone has a smaller largest |p| than all of them
+    assert shown < 0.95 * max(abs(everywhere[0]), abs(everywhere[1]))
+    out = tmp_path / "pv"
+    _cli("paraview", str(case), "--times", repr(first), "--out", str(out), "--no-animation")
+    report = json.loads((out / "report.json").read_text())
+    assert report["colour_ranges"]["p"] == pytest.approx([-shown, shown], rel=1e-5)
+    assert report["data_range"]["p"] == pytest.approx(list(everywhere), rel=1e-5)

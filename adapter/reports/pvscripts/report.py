@@ -15,8 +15,12 @@ Writes into OUT: ``side_t<t>.png`` and ``angled_t<t>.png`` at each ``--times`` v
 paper's Figures 2-5 views), ``animation/frame.NNNN.png`` (the side view at every data time),
 ``whale.pvsm`` (a state file for the ParaView GUI, absolute data paths) and ``report.json``
 (every picture with its time and camera, the colour ranges, stage timings). Colour ranges are
-fixed over all data times, so pictures at different times compare. Every progress line starts
-with ``report:`` and is flushed at once.
+fixed, so pictures at different times compare: |U| and the displacement over all data times,
+the whale's pressure over the pictures' times (the last stroke cycle: the start-up's
+accelerating inflow lifts the whole patch's pressure, by 40 kPa on the default case, which
+would leave every picture of the periodic state one colour; the animation's start-up frames
+then saturate; report.json keeps the range over all times as ``data_range``). Every progress
+line starts with ``report:`` and is flushed at once.
 """
 
 import argparse
@@ -213,13 +217,15 @@ def build_case(args, view, meta):
 
     t0 = time.perf_counter()
     p_lo, p_hi = array_range(p_source, "POINTS", p_name, 0, times)
-    p_max = max(abs(p_lo), abs(p_hi)) or 1.0
+    shown_lo, shown_hi = array_range(p_source, "POINTS", p_name, 0, args.times)
+    p_max = max(abs(shown_lo), abs(shown_hi)) or 1.0
     p_rng = (-p_max, p_max)
     u_rng = array_range(cut, "POINTS", "U", -1, times)
     u_rng = (0.0, u_rng[1] or 1.0)
     bounds = union_bounds(whale, times)
     say(f"colour ranges over {len(times)} times: p {p_lo:.4g} .. {p_hi:.4g} {p_unit} (shown "
-        f"+-{p_max:.3g}), |U| 0 .. {u_rng[1]:.4g} m/s ({time.perf_counter() - t0:.1f} s)")
+        f"+-{p_max:.3g}, the range at the pictures' {len(args.times)} times), |U| 0 .. "
+        f"{u_rng[1]:.4g} m/s ({time.perf_counter() - t0:.1f} s)")
 
     cut_display = pvs.Show(cut, view)
     colour_by(cut_display, view, "U", "Magnitude", u_rng, "Viridis (matplotlib)",
