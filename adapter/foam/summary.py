@@ -89,17 +89,20 @@ def summarise(case: Path, watch: LogWatch, record: dict, ranks: int, flow_wall: 
         "flow_wall_s": round(flow_wall, 2),
         "wall_s": round(wall, 2),
     }
-    return _nan_to_none(summary)
+    return finite(summary)
 
 
-def _nan_to_none(value):
-    """``value`` with every NaN float, nested ones included, as None: strict JSON has no NaN,
-    and a figure that was never measured (the motion of a static mesh) is absent, not a number."""
-    if isinstance(value, dict):
-        return {k: _nan_to_none(v) for k, v in value.items()}
-    if isinstance(value, float) and math.isnan(value):
+def finite(obj):
+    """``obj`` with every NaN or infinite float, nested ones included, as None: strict JSON has
+    no NaN, and a figure that was never measured (the motion of a static mesh) is absent, not a
+    number. (The one such cleaner: the pair's figures and study.json use it too.)"""
+    if isinstance(obj, dict):
+        return {k: finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [finite(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
         return None
-    return value
+    return obj
 
 
 #: the rows of :func:`format_summary`: (label, key of the summary (a/b for nested), format);

@@ -19,7 +19,6 @@ reference drag; the drag, Fx and power also per body region (body, flippers, flu
 from __future__ import annotations
 
 import json
-import math
 import shutil
 from pathlib import Path
 
@@ -29,7 +28,7 @@ from adapter.foam.case import read_record, write_json
 from adapter.foam.dictionaries import parsed_dict
 from adapter.foam.parallel import reconstruct_new_times
 from adapter.foam.run import run_case
-from adapter.foam.summary import SUMMARY
+from adapter.foam.summary import SUMMARY, finite
 from adapter.foamfiles import time_dirs
 
 GLIDING = "gliding"
@@ -190,9 +189,9 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
                                                       "stopped_because")},
     }
     summary = dict(s_summary)
-    summary["swimming_cost"] = _finite(result)
-    summary["yplus"] = _finite(yplus_over_run(case))
-    summary["yplus_gliding"] = _finite(yplus_over_run(glide))
+    summary["swimming_cost"] = finite(result)
+    summary["yplus"] = finite(yplus_over_run(case))
+    summary["yplus_gliding"] = finite(yplus_over_run(glide))
     write_json(case / SUMMARY, summary)
     from adapter.reports.render import plot_forces
 
@@ -207,17 +206,6 @@ def _last_period_mean(data: dict, key: str, period: float) -> float:
         return float("nan")
     st = ld.cycle_stats(data["Time"], data[key], data[key], period, period)
     return float(st.mean_fx[-1]) if len(st.starts) else float("nan")
-
-
-def _finite(obj):
-    """NaN and infinities as None (JSON has no NaN)."""
-    if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, list):
-        return [_finite(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
 
 
 #: the rows run-case prints after the pair (case.format_summary: label, key, format)

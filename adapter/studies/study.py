@@ -45,7 +45,8 @@ from adapter.errors import AdapterError, UsageError
 from adapter.foam.case import CASE_RECORD, prepare_case, read_record, write_json
 from adapter.foam.mesh import mesh_case
 from adapter.foam.parameters import case_parameters
-from adapter.studies.study_analysis import analyse, case_done, finite
+from adapter.foam.summary import finite
+from adapter.studies.study_analysis import analyse, case_done
 from adapter.studies.study_report import format_study, plot_accuracy_vs_cost
 
 PLAN = "study-plan.json"

@@ -204,17 +204,6 @@ def analyse(out: Path, scene, cases: list, ratio: float, failed: dict | None = N
     return study
 
 
-def finite(obj):
-    """``obj`` with every infinite or NaN float replaced by None (for JSON)."""
-    if isinstance(obj, dict):
-        return {k: finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [finite(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
-
-
 def mesh_error(g: dict, k: int) -> float:
     """Mesh ``k``'s error estimate for figure ``g`` of the mesh study (a fraction of its scale):
     its difference from the extrapolated value, or, when the three meshes oscillate (no
