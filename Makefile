@@ -5,6 +5,7 @@
 #   make test       lint + the whole test suite, OpenFOAM and ParaView included
 #   make dry-run    animate without fluid (SCENE, OUT, CYCLES)
 #   make bench      performance figures (bench-flow: moving against static flow step); make chart: the numerics study; make paraview: pictures
+#   make validate   the flows with known answers (docs/validation.md; NP, VALIDATION)
 #   make mutation   mutation testing of the core modules (MODULES, JOBS; docs/mutation.md)
 
 SHELL := /bin/bash
@@ -18,6 +19,7 @@ CYCLES ?=
 NP ?=
 CASE ?= runs/$(basename $(notdir $(SCENE)))
 STUDY ?= runs/study-$(basename $(notdir $(SCENE)))
+VALIDATION ?= out/validation
 PYTEST_ARGS ?=
 # make mutation: the modules to mutate (default: all of pyproject's [tool.whale-adapter.mutation])
 MODULES ?=
@@ -26,7 +28,7 @@ JOBS ?= 2
 scene_args = $(if $(filter %.toml,$(SCENE)),--scene $(SCENE),--preset $(SCENE))
 
 .PHONY: help setup venv system openfoam plugin test lint dry-run calibrate run-case study bench bench-flow \
-        chart paraview paraview-deps mutation clean
+        chart paraview paraview-deps mutation validate clean
 
 help:
 	@sed -n '1,/^$$/p' Makefile
@@ -72,6 +74,10 @@ run-case: venv system openfoam plugin
 # hours on 2 cores (docs/case.md, "The flow study"); run again to continue a stopped study
 study: venv system openfoam plugin
 	$(BIN)/whale-adapter study $(scene_args) --out $(STUDY) $(if $(NP),--np $(NP))
+
+# at most 30 minutes on 2 cores (docs/validation.md)
+validate: venv system openfoam plugin
+	$(BIN)/whale-adapter validate --out $(VALIDATION) $(if $(NP),--np $(NP))
 
 bench: venv
 	$(BIN)/python scripts/bench.py

@@ -4,7 +4,7 @@ Each sub-command lives in the module of its idea and registers itself here throu
 ``register(subparsers)`` function: dry-run and calibrate (:mod:`adapter.motion.dryrun`,
 :mod:`adapter.studies.calibration`), geometry (:mod:`adapter.body.geometry`), serve
 (:mod:`adapter.coupling.server`), run-case (:mod:`adapter.foam.command`),
-study (:mod:`adapter.studies.study`).
+study (:mod:`adapter.studies.study`), validate (:mod:`adapter.validation.suite`).
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ _COMMAND_MODULES = (
     "adapter.studies.numerics",
     "adapter.studies.chooser",
     "adapter.reports.paraview_report",
+    "adapter.validation.suite",
 )
 
 

@@ -32,6 +32,7 @@ ROOMS = {
     "adapter.foam": "foam",
     "adapter.studies": "studies",
     "adapter.reports": "reports",
+    "adapter.validation": "validation",
 }
 
 #: room -> the rooms it may import (besides itself); docs/architecture.md has the same table
@@ -43,7 +44,8 @@ ALLOWED = {
     "coupling": {"base", "body", "motion"},
     "foam": {"base", "body", "motion", "coupling", "reports"},
     "studies": {"base", "body", "motion", "coupling", "foam", "reports"},
-    "front": {"base", "body", "motion", "coupling", "foam", "studies", "reports"},
+    "validation": {"base", "body", "motion", "coupling", "foam", "reports"},
+    "front": {"base", "body", "motion", "coupling", "foam", "studies", "reports", "validation"},
 }
 
 #: state that only its own module writes (attribute -> owning module); others call a method
