@@ -3,10 +3,8 @@
 A scene is a tree of frozen dataclasses. :func:`load_scene` reads a TOML file on top of the
 built-in defaults (``adapter/data/scenes/default.toml``), so a user's file only names what it
 changes. Every key is checked at load: an unknown key or a bad value raises
-:class:`~adapter.errors.SceneError` naming its path in the file, e.g. ``springs.mu``.
-
-Units are SI throughout (m, s, kg); positions along the body are fractions of the body length
-L measured from the rostrum.
+:class:`~adapter.errors.SceneError` naming its path in the file, e.g. ``springs.mu``. Units are
+SI; positions along the body are fractions of the body length L from the rostrum.
 """
 
 from __future__ import annotations
@@ -45,16 +43,14 @@ class Geometry:
     nodes: int = field(default=11272, metadata={"check": lambda v: 400 <= v <= 2_000_000})
     #: fluke span as a fraction of L (sources give 0.22-0.35 L)
     fluke_span: float = field(default=0.32, metadata={"check": lambda v: 0.1 <= v <= 0.5})
-    #: landmarks of a mesh file, in its own coordinates (m); empty for the procedural whale.
-    #: Keys: rostrum, flipper_left, flipper_right, tail_base, fluke_tip_left, fluke_tip_right.
+    #: a mesh file's landmarks (adapter.body.landmarks.LANDMARKS), in its coordinates (m)
     landmarks: dict = field(default_factory=dict)
-    #: how far a landmark may lie from the surface, as a fraction of L
     landmark_tolerance: float = field(default=0.01, metadata={"check": _positive})
 
 
 @dataclass(frozen=True)
 class Regions:
-    """Per-node regions along the body (fractions of L from the rostrum)."""
+    """Regions along the body (fractions of L from the rostrum)."""
 
     head_end: float = field(default=0.27, metadata={"check": _fraction})
     tail_start: float = field(default=0.55, metadata={"check": _fraction})
@@ -69,7 +65,6 @@ class Springs:
     k_tail: float = field(default=40.0, metadata={"check": _positive})
     #: width of the smooth step between region constants, fraction of L
     transition: float = field(default=0.05, metadata={"check": _positive})
-    #: multiplies every constant; found by calibration
     stiffness_scale: float = field(default=1.0, metadata={"check": _positive})
     mu: float = field(default=0.5, metadata={"check": _non_negative})
     nu: float = field(default=0.05, metadata={"check": _non_negative})
@@ -88,29 +83,23 @@ class Stroke:
     head_speed: float = field(default=0.3, metadata={"check": _non_negative})
     tail_exponent: float = field(default=2.0, metadata={"check": _positive})
     head_exponent: float = field(default=1.0, metadata={"check": _positive})
-    #: where the head profile crosses zero (fraction of L); the flipper region between it and
-    #: the pivot moves against head and tail. 0 drops the dip.
+    #: where the head profile crosses zero (fraction of L; 0 drops the flippers' dip)
     head_node: float = field(default=0.2, metadata={"check": _fraction})
     #: "heave": remove the profile's net vertical momentum (recoil), "none": keep it
     recoil: str = field(default="none", metadata={"choices": ("heave", "none")})
-    #: multiplies every initial velocity; found by calibration
     velocity_scale: float = field(default=1.0, metadata={"check": _positive})
     #: fluke angle table: "default" (shipped data file) or a path to a CSV (phase, angle_deg)
     fluke_table: str = "default"
-    #: multiplies the table's angles
     fluke_angle_scale: float = field(default=1.0, metadata={"check": _non_negative})
     #: the fluke angle ramps in from flat over this fraction of the first cycle ("negate")
     fluke_ramp: float = field(default=0.25, metadata={"check": lambda v: 0 <= v <= 4})
-    #: length (fraction of L) behind the tail base over which the fluke goes from the body's
-    #: motion to the gate's rigid turn (a bending joint); 0: the paper's hinge (docs/stroke.md)
+    #: a bending joint this long behind the tail base (fraction of L); 0: the paper's hinge
     fluke_joint: float = field(default=0.0, metadata={"check": lambda v: 0 <= v <= 0.1})
-    #: how the stroke turns: "smooth" (continuous wall velocity; the default for coupled
-    #: runs) or "negate" (the paper: every velocity negated at the top and bottom)
+    #: "smooth" (continuous wall velocity) or "negate" (the paper: velocities negated)
     reversal: str = field(default="smooth", metadata={"choices": ("smooth", "negate")})
     #: "smooth": the stroke and the fluke angle ramp in from rest over this many cycles
     ramp_cycles: float = field(default=1.0, metadata={"check": lambda v: 0 <= v <= 10})
-    #: "smooth": natural frequency of the critically damped tether that holds every moving
-    #: node near its target, in multiples of frequency_hz (0: no tether)
+    #: "smooth": the nodes' critically damped tether's frequency, x frequency_hz (0: none)
     tether: float = field(default=4.0, metadata={"check": _non_negative})
 
 
@@ -138,10 +127,27 @@ class Integrator:
 
 
 @dataclass(frozen=True)
+class Rigid:
+    """A rigid prescribed motion of any closed body instead of the whale's stroke: x(t) = r A
+    sin(w t + phase), theta(t) = r Theta sin(w t + phase) about the axis through the centre,
+    w = 2 pi f, r(t) a ramp from 0 to 1 over ramp_cycles (docs/scene.md, "A rigid body")."""
+
+    enabled: bool = False
+    frequency_hz: float = field(default=0.25, metadata={"check": _positive})
+    translation_m: tuple = field(default=(0.0, 0.0, 0.0), metadata={"vector": True})
+    translation_phase_deg: float = 0.0
+    rotation_deg: float = 0.0
+    rotation_phase_deg: float = 0.0
+    rotation_axis: tuple = field(default=(0.0, 0.0, 1.0), metadata={"vector": True, "check": any})
+    rotation_centre_m: tuple = field(default=(0.0, 0.0, 0.0), metadata={"vector": True})
+    ramp_cycles: float = field(default=0.0, metadata={"check": lambda v: 0 <= v <= 10})
+
+
+@dataclass(frozen=True)
 class Flow:
     """The water and the swimming speed."""
 
-    speed_m_s: float = field(default=1.3, metadata={"check": _positive})
+    speed_m_s: float = field(default=1.3, metadata={"check": _non_negative})
     rho_kg_m3: float = field(default=1025.0, metadata={"check": _positive})
     nu_m2_s: float = field(default=1.0e-6, metadata={"check": _positive})
 
@@ -152,7 +158,6 @@ class Output:
 
     cycles: int = field(default=2, metadata={"check": lambda v: v >= 1})
     frames_per_cycle: int = field(default=24, metadata={"check": lambda v: v >= 4})
-    #: key-point samples per cycle in keypoints.csv
     samples_per_cycle: int = field(default=120, metadata={"check": lambda v: v >= 8})
 
 
@@ -164,15 +169,13 @@ class Case:
     upstream: float = field(default=1.5, metadata={"check": _positive})
     downstream: float = field(default=3.0, metadata={"check": _positive})
     half_width: float = field(default=1.5, metadata={"check": _positive})
-    #: background blockMesh cell size, in body lengths (the body's own length: a 2.5 m animal
-    #: gets cells 2.5/15 the size of the 15 m whale's)
+    #: background blockMesh cell size, in body lengths (the body's own length)
     background_cell: float = field(default=2.0 / 15.0, metadata={"check": _positive})
     #: the same in metres when > 0 (the older key): it wins over background_cell
     background_cell_m: float = field(default=0.0, metadata={"check": _non_negative})
     #: snappyHexMesh surface refinement levels (min, max)
     refinement: tuple = field(default=(2, 4))
-    #: snappyHexMesh level of the cells within one such cell of the flippers (0: none), and of
-    #: the flukes' blade (its part beyond fluke_clearance such cells behind the tail base)
+    #: snappyHexMesh level near the flippers and the flukes' blade (0: none; docs/scene.md)
     flipper_level: int = field(default=5, metadata={"check": lambda v: 0 <= v <= 8})
     fluke_level: int = field(default=5, metadata={"check": lambda v: 0 <= v <= 8})
     fluke_clearance: float = field(default=12.0, metadata={"check": _non_negative})
@@ -181,12 +184,10 @@ class Case:
     end_time_s: float = field(default=0.0, metadata={"check": _non_negative})
     #: flow step (s); 0 chooses 0.5 * smallest cell / speed
     dt_s: float = field(default=0.0, metadata={"check": _non_negative})
-    #: writes per simulated stroke cycle
     writes_per_cycle: int = field(default=4, metadata={"check": lambda v: v >= 1})
     turbulence: str = field(default="kOmegaSST", metadata={"choices": ("kOmegaSST", "laminar")})
     ranks: int = field(default=1, metadata={"check": lambda v: v >= 1})
-    #: the inflow ramps in from still water over this many stroke cycles (0: impulsive start,
-    #: uniform flow everywhere at t = 0)
+    #: the inflow ramps in from still water over this many stroke cycles (0: impulsive)
     inflow_ramp_cycles: float = field(default=0.5, metadata={"check": _non_negative})
     #: run-case also runs the whale gliding (same mesh, no stroke) for the drag baseline
     gliding: bool = True
@@ -194,29 +195,21 @@ class Case:
     periodic_tolerance: float = field(default=0.02, metadata={"check": _positive})
     #: stop before cells invert: largest non-orthogonality (deg) allowed
     max_non_orthogonality: float = field(default=80.0, metadata={"check": lambda v: 0 < v < 90})
-    #: snappyHexMesh prism layers on the whale (0: none), the first (wall) layer's absolute
-    #: thickness (m) and the thickness ratio of neighbouring layers
+    #: prism layers on the whale (0: none), the first layer's thickness (m), their ratio
     layers: int = field(default=3, metadata={"check": lambda v: 0 <= v <= 20})
     first_layer_m: float = field(default=0.007, metadata={"check": _positive})
     layer_expansion: float = field(default=1.5, metadata={"check": lambda v: 1.0 <= v <= 3.0})
-    #: how the mesh follows the whale: "blended" (whaleBlendedDisplacement: every point's
-    #: displacement a fixed weighted sum of its nearest whale points', faded out between
-    #: motion_inner and motion_outer body lengths from the whale; a function of the whale's
-    #: displacement alone) or "laplacian" (displacementLaplacian, quadratic inverseDistance)
+    #: how the mesh follows the whale: "blended" (whaleBlendedDisplacement, faded out between
+    #: motion_inner and motion_outer body lengths) or "laplacian" (displacementLaplacian)
     mesh_motion: str = field(default="blended", metadata={"choices": ("blended", "laplacian")})
     motion_inner: float = field(default=1.0 / 30.0, metadata={"check": _non_negative})
     motion_outer: float = field(default=2.0 / 3.0, metadata={"check": _positive})
-    #: how the ranks are started (docs/cluster.md): a command before ``pimpleFoam -parallel``,
-    #: ``{np}`` replaced by the rank count (else ``-np N`` appended); "" is this machine's
-    #: ``mpirun --allow-run-as-root --oversubscribe -np {np}``
+    #: on several ranks (docs/cluster.md): the launcher ("": this machine's mpirun; ``{np}``
+    #: the rank count), "hierarchical", "case" or a decomposeParDict file, snappyHexMesh on
+    #: the ranks, reconstructPar after the run
     launcher: str = ""
-    #: the decomposition: "hierarchical" (``(N 1 1)`` for the run's N ranks), "case" (the
-    #: case's own system/decomposeParDict: only numberOfSubdomains is set) or a
-    #: decomposeParDict file (relative to the scene file), copied into the case and kept
     decomposition: str = "hierarchical"
-    #: snappyHexMesh on the ranks (decomposePar of the blockMesh mesh, then reconstructParMesh)
     parallel_meshing: bool = False
-    #: reconstructPar after a parallel run (else the written times stay in processor*/)
     reconstruct: bool = False
 
 
@@ -229,6 +222,7 @@ class Scene:
     regions: Regions = field(default_factory=Regions)
     springs: Springs = field(default_factory=Springs)
     stroke: Stroke = field(default_factory=Stroke)
+    rigid: Rigid = field(default_factory=Rigid)
     calibration: Calibration = field(default_factory=Calibration)
     integrator: Integrator = field(default_factory=Integrator)
     flow: Flow = field(default_factory=Flow)
@@ -239,8 +233,9 @@ class Scene:
 
     @property
     def period_s(self) -> float:
-        """Duration of one full stroke cycle (s)."""
-        return 1.0 / self.stroke.frequency_hz
+        """Duration of one full stroke cycle (s): of the rigid motion when it is enabled."""
+        return 1.0 / (self.rigid.frequency_hz if self.rigid.enabled else
+                      self.stroke.frequency_hz)
 
     def resolve(self, path: str) -> Path:
         """A path named in the scene file, relative to that file's folder."""
@@ -283,6 +278,8 @@ def _convert(value, annotation, path: str, meta: dict):
             raise SceneError(f"{path}: expected {_EXPECTED[kind]}, got {_describe(value)}")
         if kind is dict:
             value = {k: _point(v, f"{path}.{k}") for k, v in value.items()}
+    elif kind is tuple and meta.get("vector"):
+        value = _point(value, path)
     elif kind is tuple:
         if not isinstance(value, (list, tuple)) or not all(
             isinstance(v, int) and not isinstance(v, bool) for v in value
@@ -335,6 +332,9 @@ def _check_relations(obj, path: str) -> None:
         raise SceneError(f"{path}.head_node must lie ahead of (be smaller than) {path}.pivot")
     if isinstance(obj, Regions) and not obj.head_end < obj.tail_start:
         raise SceneError(f"{path}.head_end must be smaller than {path}.tail_start")
+    still = isinstance(obj, Scene) and obj.flow.speed_m_s == 0
+    if still and not (obj.rigid.enabled and obj.case.dt_s > 0):
+        raise SceneError("flow.speed_m_s = 0 (still water) needs rigid.enabled and case.dt_s > 0")
     ref = obj.refinement if isinstance(obj, Case) else (0, 0)
     if len(ref) != 2 or not 0 <= ref[0] <= ref[1] <= 8:
         raise SceneError(f"{path}.refinement: expected [min, max] levels with 0 <= min <= max <= 8")

@@ -35,8 +35,13 @@ def build_surface(scene) -> WhaleSurface:
         points, faces = read_surface(scene.resolve(g.source))
         extent = float(np.ptp(points[:, 0]))
         faces = validate_surface(points, faces, max(extent, 1e-12))
-        landmarks = landmarks_from_scene(points, g.landmarks, extent, g.landmark_tolerance)
-        origin = points[landmarks["rostrum"]].copy()
+        if scene.rigid.enabled and not g.landmarks:
+            # a rigid body needs none of the whale's landmarks: its nose is its smallest x
+            landmarks = {}
+            origin = points[int(np.argmin(points[:, 0]))].copy()
+        else:
+            landmarks = landmarks_from_scene(points, g.landmarks, extent, g.landmark_tolerance)
+            origin = points[landmarks["rostrum"]].copy()
         length = float(points[:, 0].max() - origin[0])
         if length <= 0:
             raise GeometryError(

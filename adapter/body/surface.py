@@ -62,15 +62,23 @@ class WhaleSurface:
         a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
         return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
 
+    @property
+    def is_whale(self) -> bool:
+        """Whether the surface has the whale's landmarks (a rigid body needs none)."""
+        return "tail_base" in self.landmarks
+
     def triangle_regions(self) -> np.ndarray:
         """(T,) int region index (:data:`REGIONS`) of every triangle of :attr:`triangles`.
 
         Flukes: triangles whose centroid lies behind the tail base (s > s of the landmark
         ``tail_base``, the animator's fluke gate). Flippers (of the rest): the faces built as
         flippers when :attr:`face_regions` is known (the procedural whale), else the geometric
-        rule of :func:`flipper_triangles`. Body: everything else.
+        rule of :func:`flipper_triangles`. Body: everything else, and the whole of a body
+        without the whale's landmarks (a rigid body: :attr:`is_whale` False).
         """
         tri = self.triangles
+        if not self.is_whale:
+            return np.full(len(tri), BODY, dtype=np.int64)
         centroid = self.points[tri].mean(axis=1)
         s_c = (centroid[:, 0] - self.origin[0]) / self.length
         if self.face_regions is not None:

@@ -154,9 +154,9 @@ class StepServer:
     def _build_parts(self) -> None:
         """The animator (warmed up), its state store, the recorder and the timeline."""
         if self.animator is None:
-            from adapter.motion.animator import Animator  # heavy: imported on demand
+            from adapter.motion.animator import animator_for  # heavy: imported on demand
 
-            self.animator = Animator(self.scene)
+            self.animator = animator_for(self.scene)
         else:
             self.animator.reset()
         a = self.animator

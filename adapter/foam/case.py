@@ -75,6 +75,9 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
 
         surface = build_surface(scene)
     check_length(scene, surface)
+    if not surface.is_whale:
+        # a body without the whale's landmarks has no flippers or flukes to refine at
+        scene = scene.replace(case={"flipper_level": 0, "fluke_level": 0})
     case.mkdir(parents=True, exist_ok=True)
     shutil.copytree(TEMPLATE_DIR, case, dirs_exist_ok=True)
     stl = case / "constant" / "triSurface" / "whale.stl"
@@ -84,7 +87,8 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     # multi-solid STL and the whale must stay one patch
     surface.write_regions_stl(stl.with_name(REGIONS_STL))
     # the flippers alone: snappyHexMesh's refinement region around them (case.flipper_level)
-    surface.write_regions_stl(stl.with_name(FLIPPERS_STL), only="flippers")
+    if surface.is_whale:
+        surface.write_regions_stl(stl.with_name(FLIPPERS_STL), only="flippers")
     pts = np.asarray(surface.points)
     params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
                              length=surface.length)
@@ -95,9 +99,12 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
                                       scene.case.fluke_clearance * params.fluke_cell_m)
     decomposition = choose_decomposition(case, scene.case.decomposition, scene.base_dir)
     write_dictionaries(case, scene, params, static_whale, decomposition)
-    tail_base_s = float(surface.s[surface.landmarks["tail_base"]])
+    tail_base_s = float(surface.s[surface.landmarks["tail_base"]]) if surface.is_whale else 2.0
     st = scene.stroke
-    ramp = (st.ramp_cycles if st.reversal == "smooth" else st.fluke_ramp) * scene.period_s
+    if scene.rigid.enabled:
+        ramp = scene.rigid.ramp_cycles * scene.period_s
+    else:
+        ramp = (st.ramp_cycles if st.reversal == "smooth" else st.fluke_ramp) * scene.period_s
     record = {
         "scene_file": str(Path(scene_file).resolve()) if scene_file else None,
         # the start-up discarded from the figures: the ramp, at least one cycle

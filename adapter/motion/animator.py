@@ -247,3 +247,14 @@ def _step_target(scene, network, rest, free, smooth: bool, tether) -> tuple[floa
             f"{sp_.mu} and springs.nu = {sp_.nu} (forward Euler needs damping); raise mu"
         )
     return stable, target
+
+
+def animator_for(scene, surface=None):
+    """The scene's moving body: the spring-mass whale (:class:`Animator`), or a closed body in
+    rigid prescribed motion (:class:`~adapter.motion.rigid.RigidMotion`) when
+    ``rigid.enabled``."""
+    if scene.rigid.enabled:
+        from adapter.motion.rigid import RigidMotion
+
+        return RigidMotion(scene, surface)
+    return Animator(scene, surface)
