@@ -21,7 +21,9 @@ from pathlib import Path
 import pytest
 
 from adapter.foam.report import REPORT, write_report
+from adapter.foam.swimrun import COST_ROWS
 from adapter.reports.html_page import CSP
+from adapter.studies.study_report import write_study_report
 
 REPO = Path(__file__).resolve().parent.parent
 IMG = REPO / "docs" / "img"
@@ -76,7 +78,7 @@ def images(page: str) -> list[str]:
 
 def test_the_report_is_self_contained_and_holds_the_figures(tmp_path):
     case = make_case(tmp_path)
-    page = write_report(case).read_text()
+    page = write_report(case, rows=COST_ROWS).read_text()
     assert (case / REPORT).is_file()
     # every picture inline, byte for byte (round trip); nothing the page would fetch
     srcs = images(page)
@@ -98,7 +100,8 @@ def test_the_report_is_self_contained_and_holds_the_figures(tmp_path):
 def test_a_run_that_never_became_periodic_says_so(tmp_path):
     summary = json.loads(json.dumps(SUMMARY))
     summary["swimming_cost"]["periodic_change"]["reached"] = False
-    page = write_report(make_case(tmp_path, summary, pictures=False)).read_text()
+    case = make_case(tmp_path, summary, pictures=False)
+    page = write_report(case, rows=COST_ROWS).read_text()
     assert 'class="warning"' in page and "ended before its periodic state" in page
     assert "No ParaView pictures yet" in page and len(images(page)) == 1
 
@@ -112,8 +115,36 @@ def test_a_single_run_gets_its_summary_table(tmp_path):
 
 def test_text_is_escaped(tmp_path):
     summary = dict(SUMMARY, stopped_because="<b>periodic</b> & done")
-    page = write_report(make_case(tmp_path, summary)).read_text()
+    page = write_report(make_case(tmp_path, summary), rows=COST_ROWS).read_text()
     assert "&lt;b&gt;periodic&lt;/b&gt; &amp; done" in page and "<b>" not in page
+
+
+#: a study.json's content as the study's analysis writes it, two cases of three finished (the
+#: flow study's record, docs/results/2026-12-01-flow-study.md)
+STUDY = {
+    "scene": "default", "ratio": 1.3, "finest": "scene",
+    "cases": {
+        "mesh-1/case": {"cells": 95229, "background_cell_m": 2.02, "delta_t_s": 0.0435,
+                        "speed_m_s": 1.3, "gliding_drag": 661.0, "swimming_fx": -835.0,
+                        "swimming_power": 4149.0, "froude_efficiency": 0.47,
+                        "yplus_area_le_300": 0.970, "periodic_reached": True,
+                        "wall_s_per_cycle": 164.0},
+        "mesh-2/case": {"cells": 64440, "background_cell_m": 2.63, "delta_t_s": 0.0435,
+                        "speed_m_s": 1.3, "gliding_drag": 690.0, "swimming_fx": -724.0,
+                        "swimming_power": 4044.0, "froude_efficiency": 0.46,
+                        "yplus_area_le_300": 0.946, "periodic_reached": True,
+                        "wall_s_per_cycle": 105.0},
+        "mesh-3/case": None},
+    "failed": {}, "not_finished": ["mesh-3/case"],
+}
+
+
+def test_the_study_page_holds_its_cases_and_chart(tmp_path):
+    page = write_study_report(tmp_path, STUDY, IMG / "accuracy-vs-cost.png").read_text()
+    assert (tmp_path / "report.html").is_file()
+    for text in ("95,229", "-835 N", "4044 W", "97.0%", "not finished: mesh-3/case", "mesh-1 "):
+        assert text in page, text
+    assert len(images(page)) == 1 and CSP in page and "<script" not in page
 
 
 # -- in a real browser --------------------------------------------------------------------------
@@ -181,9 +212,17 @@ def test_the_probe_sees_a_broken_picture_and_a_console_error(tmp_path):
 
 @needs_chromium
 def test_the_report_renders_its_pictures_in_chromium(tmp_path):
-    page = write_report(make_case(tmp_path))
+    page = write_report(make_case(tmp_path), rows=COST_ROWS)
     seen = open_in_chromium(page, tmp_path)
     assert len(seen["images"]) == 2
     for alt, complete, width, height in seen["images"]:
         assert complete and width > 0 and height > 0, f"{alt}: not drawn ({width} x {height})"
+    assert seen["problems"] == [] and seen["console"] == []
+
+
+@needs_chromium
+def test_the_study_page_renders_in_chromium(tmp_path):
+    page = write_study_report(tmp_path, STUDY, IMG / "accuracy-vs-cost.png")
+    seen = open_in_chromium(page, tmp_path)
+    assert [w > 0 for _, _, w, _ in seen["images"]] == [True]
     assert seen["problems"] == [] and seen["console"] == []

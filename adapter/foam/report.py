@@ -53,16 +53,19 @@ _MESH_ROWS = [
 ]
 
 
-def write_report(case, summary: dict | None = None) -> Path:
+def write_report(case, summary: dict | None = None, rows=None) -> Path:
     """Write ``<case>/report.html`` from the case folder; ``summary``: the run's summary (default:
-    ``adapter-summary.json`` as written). Returns the page's path."""
+    ``adapter-summary.json`` as written); ``rows``: the headline table's rows, as
+    :func:`~adapter.foam.summary.format_summary` takes them (the pair passes its
+    ``COST_ROWS``; default :data:`~adapter.foam.summary.SUMMARY_ROWS`). Returns the page's
+    path."""
     case = Path(case)
     if summary is None:
         summary = json.loads((case / SUMMARY).read_text())
     record_path = case / CASE_RECORD
     record = json.loads(record_path.read_text()) if record_path.is_file() else {}
-    sections = [_headline(summary), _forces(case), _pictures(case), _yplus(summary),
-                _mesh(summary, record), _scene(record), _versions(case)]
+    sections = [_headline(summary, rows or SUMMARY_ROWS), _forces(case), _pictures(case),
+                _yplus(summary), _mesh(summary, record), _scene(record), versions_section(case)]
     subtitle = (f"{case.resolve()} · written "
                 f"{datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')} by "
                 f"whale-adapter run-case · every figure: {SUMMARY}")
@@ -70,15 +73,13 @@ def write_report(case, summary: dict | None = None) -> Path:
                       [s for s in sections if s is not None])
 
 
-def _headline(summary: dict) -> Section:
-    from adapter.foam.swimrun import COST_ROWS
-
+def _headline(summary: dict, rows) -> Section:
     cost = summary.get("swimming_cost")
     stopped = f"The mesh watch stopped the run: {summary['stopped']}" if summary.get(
         "stopped") else ""
     if not cost:
         return Section("The run", warning=stopped,
-                       rows=tuple(summary_rows(summary, SUMMARY_ROWS)))
+                       rows=tuple(summary_rows(summary, rows)))
     periodic = cost.get("periodic_change", {})
     warning = ""
     if periodic and not periodic.get("reached", True):
@@ -91,7 +92,7 @@ def _headline(summary: dict) -> Section:
         text=("Cycle means over the last stroke cycle after the start-up. Fx is the force along "
               "the flow (+x, rostrum to tail): a negative mean Fx is net thrust (the stroke's "
               "thrust exceeds the drag; held in the channel, the whale would speed up)."),
-        rows=tuple(summary_rows(summary, COST_ROWS)))
+        rows=tuple(summary_rows(summary, rows)))
 
 
 def _forces(case: Path) -> Section | None:
@@ -180,7 +181,9 @@ def _scene_text(scene) -> str:
     return "\n".join(lines)
 
 
-def _versions(case: Path) -> Section:
+def versions_section(case: Path | None = None) -> Section:
+    """The versions used (provenance): this package, Python, numpy, the system; with a case
+    folder also OpenFOAM's build line from its log and the plugin libraries it loads."""
     rows = [("whale-adapter", _dist_version("whale-adapter")),
             ("Python", platform.python_version()),
             ("numpy", _dist_version("numpy")),
@@ -188,13 +191,13 @@ def _versions(case: Path) -> Section:
     debian = Path("/etc/debian_version")
     if debian.is_file():
         rows.append(("Debian", debian.read_text().strip()))
-    log = case / "log.pimpleFoam"
-    if log.is_file():
+    log = case / "log.pimpleFoam" if case is not None else None
+    if log is not None and log.is_file():
         head = log.read_text(errors="replace")[:4000]
         m = re.search(r"^Build\s*:\s*(.+)$", head, re.M)
         if m:
             rows.append(("OpenFOAM (log.pimpleFoam)", m[1].strip()))
-    for lib in _plugin_libraries(case):
+    for lib in _plugin_libraries(case) if case is not None else []:
         rows.append(("plugin library", f"{lib} (sha256 {_sha256(lib)})" if lib.is_file()
                      else f"{lib} (not found)"))
     rows.append(("command", " ".join(Path(a).name if i == 0 else a
