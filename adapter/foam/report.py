@@ -206,12 +206,13 @@ def versions_section(case: Path | None = None) -> Section:
 
 
 def _plugin_libraries(case: Path) -> list[Path]:
+    """The libraries the case loads by path (the plugin; run-case writes its absolute path)."""
     control = case / "system" / "controlDict"
     if not control.is_file():
         return []
     names = re.findall(r"\blibs\s*\(([^)]*)\)", control.read_text())
     found = dict.fromkeys(Path(s.strip('"')) for text in names for s in text.split())
-    return list(found)
+    return [p for p in found if p.is_absolute()]   # OpenFOAM's own come by name
 
 
 def _sha256(path: Path) -> str:
