@@ -35,7 +35,7 @@ from adapter.foam.folders import (
     trim_processor_times,
 )
 from adapter.foam.logs import LogWatch, Progress, fatal_error, motion_check_stop
-from adapter.foam.mesh import mesh_case
+from adapter.foam.mesh import checked_mesh, mesh_case
 from adapter.foam.parallel import parallel_command
 from adapter.foam.stepserver import start_server, stop_server
 from adapter.foam.summary import SUMMARY, summarise
@@ -109,6 +109,8 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     if not (case / "constant" / "polyMesh" / "owner").exists():
         mesh_case(case, ranks=ranks, launcher=settings["launcher"])
         record = read_record(case)
+    # a mesh that misses or mangles the body is refused before any solver runs
+    checked_mesh(case, record)
     restore_zero(case)
     if ranks > 1:
         set_decomposition(case, ranks, settings["decomposition"])
