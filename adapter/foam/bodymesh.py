@@ -88,8 +88,15 @@ def initial_intersections(log_text: str) -> int | None:
 def mesh_levels(case) -> dict:
     """The whale's surface ``level`` (min, max) and ``layers`` (0 without the layer stage) in
     the case's system/snappyHexMeshDict."""
-    d = parsed_dict(Path(case) / "system" / "snappyHexMeshDict").content
-    level = [int(v) for v in d["castellatedMeshControls"]["refinementSurfaces"]["whale"]["level"]]
+    path = Path(case) / "system" / "snappyHexMeshDict"
+    d = parsed_dict(path).content
+    try:
+        level = [int(v) for v in
+                 d["castellatedMeshControls"]["refinementSurfaces"]["whale"]["level"]]
+    except (KeyError, TypeError, ValueError):
+        raise MeshError(f"{path}: no castellatedMeshControls/refinementSurfaces/whale/level "
+                        "(min max); the whale's surface levels are needed to check its mesh"
+                        ) from None
     layers = 0
     if str(d.get("addLayers", "no")).lower() in ("yes", "on", "true", "1"):
         entry = d["addLayersControls"]["layers"].get("whale", {})
