@@ -17,7 +17,7 @@ from adapter.foam.case import (
     write_json,
 )
 from adapter.foam.dictionaries import DECOMPOSITIONS, choose_decomposition, parsed_dict
-from adapter.foam.folders import resume_time
+from adapter.foam.folders import asked_start, resume_time
 from adapter.foam.mesh import mesh_case
 from adapter.foam.report import REPORT, write_report
 from adapter.foam.run import run_case
@@ -81,8 +81,14 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
         record = read_record(case)
         _check_same_case(case, record, args)
         t0, control = resume_time(case), parsed_dict(case / "system" / "controlDict")
-        print(f"{case} already holds a case ({_recorded(record)}): "
-              f"continuing it from t = {t0:.6g} s")
+        asked = asked_start(case)
+        if asked is None:
+            print(f"{case} already holds a case ({_recorded(record)}): "
+                  f"continuing it from t = {t0:.6g} s")
+        else:
+            # run_case says what it recomputes from there, or refuses a time not written
+            t0 = asked[0]
+            print(f"{case} already holds a case ({_recorded(record)})")
         if t0 >= float(control["endTime"]) - 0.5 * float(control["deltaT"]):
             print(f"it has reached its end time ({float(control['endTime']):.6g} s): nothing to "
                   "run (to run it longer, raise endTime in its system/controlDict)")
