@@ -377,7 +377,7 @@ def test_socket_is_private_whatever_the_umask(case, serve):
 
 
 def test_tcp_is_loopback_by_default_and_needs_the_token_otherwise(case, serve, points):
-    assert build_parser().parse_args(["serve", "--case", "x"]).host == "127.0.0.1"
+    assert build_parser().parse_args(["serve", "--case", "."]).host == "127.0.0.1"
     srv = serve(case, tcp_port=0)
     assert srv.tcp_address[0] == "127.0.0.1"
     srv.stop()
