@@ -13,6 +13,7 @@ Every case also runs in-process through the same :func:`~adapter.cli.main`.
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
@@ -58,8 +59,10 @@ BAD = {
         (["--case", "afile"], "afile is a file"),
         (["--case", "missing"], "missing does not exist"),
         (["--case", "folder", "--wait", "-1"], "--wait: expected a number above 0"),
-        (["--case", "folder", "--tcp", "-5"], "--tcp: expected a whole number within [0, 65535]"),
-        (["--case", "folder", "--tcp", "http"], "--tcp: expected a whole number, got 'http'"),
+        (["--case", "folder", "--tcp", "-5"], "--tcp/--port: expected a whole number within "
+                                              "[0, 65535]"),
+        (["--case", "folder", "--port", "http"], "--tcp/--port: expected a whole number, got "
+                                                 "'http'"),
         (["--case", "folder", "--map-tolerance", "-0.1"], "--map-tolerance: expected a number "
                                                           "above 0"),
         (["--case", "folder", "--token-file", "missing"], "--token-file: missing does not exist"),
@@ -213,6 +216,7 @@ def test_bad_input_in_a_subprocess(runs, cmd, args, fragment):
 @pytest.mark.parametrize("cmd, args, fragment", CASES, ids=_ids(CASES))
 def test_bad_input_in_process(root, monkeypatch, capsys, cmd, args, fragment):
     monkeypatch.chdir(root)
+    monkeypatch.setattr(signal, "signal", lambda *a: None)   # run-case's SIGTERM handler
     try:
         code = main([cmd, *args])
     except SystemExit as exc:       # argparse's own errors

@@ -131,3 +131,17 @@ def test_quiet_run_case_prints_nothing_but_its_warning(tmp_path, capsys, fake_pa
 def test_the_long_commands_take_quiet(command):
     parser = _subparsers(build_parser())[command]
     assert "--quiet" in parser.format_help() and "-q" in parser.format_help()
+
+
+@pytest.mark.parametrize("args, dest, value", [
+    (["run-case", "--out", "runs/x"], "case", "runs/x"),
+    (["run-case", "--case", "runs/x"], "case", "runs/x"),
+    (["calibrate", "--out", "c.json"], "report", "c.json"),
+    (["calibrate", "--report", "c.json"], "report", "c.json"),
+    (["serve", "--case", ".", "--port", "7000"], "tcp", 7000),
+    (["serve", "--case", ".", "--tcp", "7000"], "tcp", 7000),
+])
+def test_the_unified_spellings_are_aliases_of_the_old_ones(args, dest, value):
+    """--out for the output place, --port for a TCP port, everywhere; the old spellings stay."""
+    got = getattr(build_parser().parse_args(args), dest)
+    assert (str(got) if isinstance(value, str) else got) == value

@@ -298,7 +298,8 @@ def register(subparsers) -> None:
     p.add_argument("--case", required=True, type=in_folder, help="the OpenFOAM case folder")
     p.add_argument("--scene", type=in_file, help="scene TOML file (default: built-in scene)")
     p.add_argument("--preset", choices=PRESETS, help="built-in preset")
-    p.add_argument("--tcp", type=port, metavar="PORT", help="also listen on TCP at this port")
+    p.add_argument("--tcp", "--port", dest="tcp", type=port, metavar="PORT",
+                   help="also listen on TCP at this port (--port: the same, as in run-case)")
     p.add_argument("--host", default="127.0.0.1", help="TCP host (default 127.0.0.1)")
     p.add_argument("--token", default=None,
                    help="shared secret clients must send (visible in ps: prefer "

@@ -44,8 +44,9 @@ def register(subparsers) -> None:
     )
     p.add_argument("--scene", type=in_file, help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
-    p.add_argument("--case", default=None, type=out_folder,
-                   help="case folder (default: runs/<preset>)")
+    p.add_argument("--case", "--out", dest="case", default=None, type=out_folder,
+                   help="case folder (default: runs/<preset>); --out is the same, the output "
+                        "place's spelling in the other commands")
     p.add_argument("--np", type=count, default=None, dest="ranks",
                    help="MPI ranks (default: the scene's case.ranks)")
     p.add_argument("--mesh-only", action="store_true", help="prepare and mesh, do not run")

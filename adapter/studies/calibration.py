@@ -86,7 +86,8 @@ def register(subparsers) -> None:
         "(docs/stroke.md).")
     p.add_argument("--scene", type=in_file, help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
-    p.add_argument("--report", type=out_file, help="write the calibration report (JSON) here")
+    p.add_argument("--report", "--out", dest="report", type=out_file,
+                   help="write the calibration report (JSON) here (--out: the same)")
     p.set_defaults(func=_cmd_calibrate)
 
 
