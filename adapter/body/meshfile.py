@@ -41,7 +41,9 @@ def write_surface(path, points, faces, point_data=None) -> None:
     if suffix == ".stl":
         cells = [("triangle", triangulate(points, faces))]
     else:
-        cells = [("triangle" if f.shape[1] == 3 else "quad", f) for f in faces]
+        # int32 indices: PLY has no 64-bit integers (meshio would cast them, saying so)
+        cells = [("triangle" if f.shape[1] == 3 else "quad", np.asarray(f, dtype=np.int32))
+                 for f in faces]
     mesh = meshio.Mesh(np.asarray(points, dtype=np.float64), cells,
                        point_data=dict(point_data or {}))
     kwargs = {"binary": True} if suffix == ".stl" else {}

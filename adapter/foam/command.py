@@ -163,7 +163,7 @@ def _warn_unless_periodic(case: Path, summary: dict) -> int:
     reaching its periodic state (its figures are then those of a start-up, not of the gait);
     a warning too when the gliding run ended before its drag was steady."""
     cost = summary["swimming_cost"]
-    if not cost["gliding_run"].get("stopped_because"):
+    if not cost.get("gliding_run", {}).get("stopped_because"):
         print(f"whale-adapter run-case: warning: the gliding run {case / 'gliding'} reached its "
               "end time before its drag was steady: the gliding drag is that of its last "
               "stroke period", file=sys.stderr)
