@@ -49,8 +49,18 @@ class _Parser(argparse.ArgumentParser):
     """An argument parser whose errors are one line (no usage block): what was wrong and
     where to read more; exit code 2. Sub-command parsers are of the same class."""
 
-    def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+    def error(self, message, prog=None):
+        prog = prog or self.prog
+        self.exit(2, f"{prog}: error: {message} (see {prog} --help)\n")
+
+    def parse_args(self, args=None, namespace=None):
+        """As argparse's, an unknown option blamed on its sub-command, not on the whole."""
+        ns, extras = self.parse_known_args(args, namespace)
+        if extras:
+            command = getattr(ns, "command", None)
+            self.error(f"unrecognized arguments: {' '.join(extras)}",
+                       f"{self.prog} {command}" if command else None)
+        return ns
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -48,6 +48,7 @@ BAD = {
         (["--out", "d", "--cycles", "abc"], "--cycles: expected a whole number, got 'abc'"),
         (["--out", "d", "--preset", "nope"], "preset: expected one of"),
         (["--out", "d", "--scene", "missing.toml"], "missing.toml does not exist"),
+        (["--out", "d", "--bogus"], "unrecognized arguments: --bogus"),
     ],
     "calibrate": [
         (["--report", "afile/x.json"], "afile is a file, not a folder"),
