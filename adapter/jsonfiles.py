@@ -29,5 +29,7 @@ def dumps(obj, indent: int | None = 2) -> str:
 
 
 def write_json(path, obj) -> None:
-    """``obj`` as indented strict JSON into ``path``, with a final newline."""
-    Path(path).write_text(dumps(obj) + "\n")
+    """``obj`` as indented strict JSON into ``path`` (its folder made), with a final newline."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(dumps(obj) + "\n")

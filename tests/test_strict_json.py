@@ -64,8 +64,8 @@ def test_the_one_cleaner_writes_null_for_what_json_has_no_word_for(tmp_path):
     doc = {"a": math.nan, "b": [1.0, math.inf, {"c": -math.inf}], "d": (2, "x"), "e": None}
     assert finite(doc) == {"a": None, "b": [1.0, None, {"c": None}], "d": [2, "x"], "e": None}
     assert _strict(dumps(doc)) == finite(doc)
-    write_json(tmp_path / "x.json", doc)
-    assert _strict((tmp_path / "x.json").read_text()) == finite(doc)
+    write_json(tmp_path / "new" / "x.json", doc)           # its folder made
+    assert _strict((tmp_path / "new" / "x.json").read_text()) == finite(doc)
     with pytest.raises(ValueError):
         _strict('{"a": NaN}')
 
