@@ -1,6 +1,6 @@
-"""The default output folders: `run-case --scene my.toml` and `study --scene my.toml` write
+"""The default folders: `run-case --scene my.toml` and `study --scene my.toml` write
 into runs/my and runs/study-my, the folders the Makefile names (CASE ?= runs/$(basename
-$(notdir $(SCENE)))), not runs/default."""
+$(notdir $(SCENE)))), not runs/default; plain `make paraview` draws that case, not the dry-run."""
 
 import shutil
 import subprocess
@@ -76,3 +76,21 @@ def _summary() -> dict:
         "gliding_drag_N": 660.0, "gliding_run": {"stopped_because": "steady"},
         "periodic_change": {"fx_of_gliding_drag": 0.001, "power": 0.001, "tolerance": 0.02,
                             "reached": True}}}
+
+
+@pytest.mark.skipif(shutil.which("make") is None, reason="no make")
+@pytest.mark.parametrize("variables, folder", [
+    ([], "runs/default"),                       # the case plain make run-case wrote
+    (["SCENE=smoke"], "runs/smoke"),
+    (["SCENE=scenes/my.toml"], "runs/my"),
+    (["CASE=runs/x"], "runs/x"),
+    (["OUT=out/dry-run"], "out/dry-run"),       # the dry-run make dry-run OUT=... wrote
+    (["DIR=out/dry-run"], "out/dry-run"),
+    (["DIR=out/d", "CASE=runs/x"], "out/d"),
+    (["CASE=runs/x", "OUT=out/o"], "runs/x"),
+])
+def test_make_paraview_draws_the_case_just_run(variables, folder):
+    out = subprocess.run(["make", "-n", "-C", str(ROOT), "paraview", *variables],
+                         capture_output=True, text=True, check=True).stdout
+    line = next(x for x in out.splitlines() if "whale-adapter paraview" in x)
+    assert line.split()[-1] == folder

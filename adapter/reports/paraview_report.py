@@ -299,8 +299,9 @@ def register(subparsers) -> None:
         "and angled PNGs at chosen times, an animation, and whale.pvsm for the ParaView GUI. "
         "Needs ParaView and Xvfb (make paraview-deps).",
     )
-    p.add_argument("dir", metavar="DIR", type=in_folder,
-                   help="coupled case folder or dry-run output folder")
+    p.add_argument("dir", metavar="DIR", type=_drawable_folder,
+                   help="coupled case folder or dry-run output folder (make paraview: the "
+                   "case just run, CASE, default runs/default; DIR=out/dry-run a dry-run)")
     p.add_argument("--times", type=non_negative, nargs="+", metavar="T",
                    help="times (s) to draw, each moved to the nearest written time (default: "
                    "0, T/4, T/2, 3T/4 of the last stroke cycle, or every time when fewer)")
@@ -310,6 +311,15 @@ def register(subparsers) -> None:
     p.add_argument("--no-animation", action="store_true",
                    help="only the pictures at --times and the state file")
     p.set_defaults(func=_cmd_paraview)
+
+
+def _drawable_folder(text: str) -> Path:
+    """DIR, an existing folder; a missing one says how to make it."""
+    if not Path(text).expanduser().exists():
+        raise argparse.ArgumentTypeError(
+            f"{text} does not exist: run the case first (make run-case, or `whale-adapter "
+            f"run-case --case {text}`), or name a dry-run folder (make paraview DIR=out/dry-run)")
+    return in_folder(text)
 
 
 def _cmd_paraview(args: argparse.Namespace) -> int:
