@@ -210,7 +210,7 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
     write_json(case / SUMMARY, summary)
     from adapter.reports.render import plot_forces
 
-    plot_forces(data, gd, period, ramp, case / "forces.png")
+    plot_forces(data, gd, period, ramp, case / "forces.png", figures=summary["swimming_cost"])
     write_report(case, summary, COST_ROWS)
     return summary
 
