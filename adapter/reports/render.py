@@ -67,7 +67,7 @@ def render_frames(surf, states: dict, path: Path, size=(1800, 820)) -> None:
                 plotter.scalar_bars[_BAR["title"]].SetTitle("")
                 plotter.add_text(_BAR["title"], position=(
                     _BAR["position_x"], _BAR["position_y"] + _BAR["height"] + 0.01),
-                    viewport=True, font_size=10)
+                    viewport=True, font_size=9)
             plotter.add_text(f"{label} ({view})", font_size=9)
             if view == "side":
                 plotter.camera_position = [
