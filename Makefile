@@ -4,7 +4,8 @@
 #   make study      the flow study: three meshes (GCI), time step, self-propelled speed (SCENE, STUDY, NP)
 #   make test       lint + the whole test suite, OpenFOAM and ParaView included
 #   make dry-run    animate without fluid (SCENE, OUT, CYCLES)
-#   make bench      performance figures (bench-flow: moving against static flow step); make chart: the numerics study; make paraview: pictures
+#   make bench      performance figures (bench-flow: moving against static flow step); make chart: the numerics study
+#   make paraview   ParaView pictures of the case just run (CASE; DIR=out/dry-run for a dry-run)
 #   make validate   the flows with known answers (docs/validation.md; NP, VALIDATION)
 #   make mutation   mutation testing of the core modules (MODULES, JOBS; docs/mutation.md)
 #   make clean      remove outputs, keep the built plugin (make distclean: the build too)
@@ -95,8 +96,12 @@ bench-flow: venv
 chart: venv
 	$(BIN)/whale-adapter numerics --out out/numerics
 
+# make paraview: the case just run (CASE, default runs/<scene> as make run-case); DIR=... any
+# case or dry-run folder; OUT=... given alone, the dry-run that make dry-run OUT=... wrote
+paraview_dir = $(or $(DIR),$(if $(and $(filter file,$(origin CASE)),$(filter command line,$(origin OUT))),$(OUT),$(CASE)))
+
 paraview: venv paraview-deps
-	$(BIN)/whale-adapter paraview $(if $(filter file,$(origin CASE)),$(OUT),$(CASE))
+	$(BIN)/whale-adapter paraview $(paraview_dir)
 
 mutation: venv
 	$(BIN)/python scripts/mutation.py --jobs $(JOBS) $(MODULES)

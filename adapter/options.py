@@ -37,6 +37,14 @@ count = number(int, 1)
 port = number(int, 0, 65535)
 
 
+def default_folder(scene_file: str | Path | None, preset: str | None, prefix: str = "") -> Path:
+    """The output folder a command writes into when none is given: ``runs/<prefix><name>``,
+    ``<name>`` the scene file's stem (``my.toml``: ``my``), else the preset (``default`` when
+    neither is given), as the Makefile's ``CASE ?= runs/$(basename $(notdir $(SCENE)))``."""
+    name = Path(scene_file).stem if scene_file else (preset or "default")
+    return Path("runs") / f"{prefix}{name}"
+
+
 def _file_in_the_way(path: Path) -> Path | None:
     """The nearest of ``path``'s existing ancestors when it is not a folder."""
     for parent in path.absolute().parents:

@@ -25,7 +25,7 @@ from adapter.foam.report import REPORT, write_report
 from adapter.foam.run import run_case
 from adapter.foam.summary import SUMMARY, format_summary
 from adapter.foam.swimrun import COST_ROWS, run_swim_and_glide
-from adapter.options import count, in_file, out_folder, port
+from adapter.options import count, default_folder, in_file, out_folder, port
 from adapter.scene import load_scene
 
 #: run-case's exit code when the swimming run ended without reaching its periodic state
@@ -45,8 +45,9 @@ def register(subparsers) -> None:
     p.add_argument("--scene", type=in_file, help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
     p.add_argument("--case", "--out", dest="case", default=None, type=out_folder,
-                   help="case folder (default: runs/<preset>); --out is the same, the output "
-                        "place's spelling in the other commands")
+                   help="case folder (default: runs/<scene file's stem> with --scene, as make "
+                        "run-case SCENE=my.toml gives runs/my; else runs/<preset>); --out is "
+                        "the same, the output place's spelling in the other commands")
     p.add_argument("--np", type=count, default=None, dest="ranks",
                    help="MPI ranks (default: the scene's case.ranks)")
     p.add_argument("--mesh-only", action="store_true", help="prepare and mesh, do not run")
@@ -87,7 +88,7 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
             raise UsageError(f"--decomposition {args.decomposition}: give hierarchical, case "
                              "or an existing decomposeParDict file")
         args.decomposition = str(Path(args.decomposition).resolve())   # a file, from here
-    case = Path(args.case or Path("runs") / (args.preset or "default"))
+    case = Path(args.case or default_folder(args.scene, args.preset))
     exists = (case / "system" / "controlDict").exists()
     if exists:
         # refuses a folder not made by run-case before anything (blockMesh) touches it

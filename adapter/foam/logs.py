@@ -1,6 +1,7 @@
 """Reading OpenFOAM's logs: checkMesh's facts, the first fatal error, and :class:`LogWatch`,
 which follows a growing pimpleFoam log (times, Courant number, the mesh-motion checks, the
-plugin's timing); :class:`Progress` shows it as one line.
+plugin's timing); :class:`Progress` shows it as one line, with the ETA of
+:mod:`adapter.foam.eta`.
 
 Mesh watch: the blended mesh motion (``whaleBlendedDisplacement``, ``checkMotion yes``) checks
 the new points before the mesh moves, prints the smallest cell volume and the largest face
@@ -20,6 +21,8 @@ import re
 import sys
 import time
 from pathlib import Path
+
+from adapter.foam.eta import PairEta, minutes, to_end_time
 
 #: the largest face non-orthogonality (deg), as checkMesh and the mesh-motion check print it
 NON_ORTHOGONALITY_RE = re.compile(r"Mesh non-orthogonality Max: ([-+0-9.eE]+)")
@@ -181,11 +184,15 @@ def _nanmin(a: float, b: float) -> float:
 
 
 class Progress:
-    """One progress line: simulated time / end time, s per step, ETA, mesh quality."""
+    """One progress line: simulated time, the time the run can stop at, s per step, the ETA in
+    minutes by the run's stopping rule (``eta``, :class:`~adapter.foam.eta.PairEta`; default:
+    to the end time), mesh quality."""
 
-    def __init__(self, end_time: float, start_time: float, stream=sys.stderr):
+    def __init__(self, end_time: float, start_time: float, stream=sys.stderr,
+                 eta: PairEta | None = None):
         self.end = end_time
         self.start = start_time
+        self.eta = eta or PairEta(to_end_time(end_time))
         self.stream = stream
         self.tty = stream.isatty()
         self.t_wall = time.perf_counter()
@@ -201,9 +208,12 @@ class Progress:
         t = watch.times[-1]
         steps = len(watch.times)
         per_step = (now - self.t_wall) / steps
-        remaining = (self.end - t) / max(t - self.start, 1e-12) * (now - self.t_wall)
-        line = (f"pimpleFoam  t = {t:.4g} / {self.end:.4g} s  step {steps}  "
-                f"{per_step:.2f} s/step  ETA {remaining:.0f} s  " + (
+        left = self.eta.seconds(t, (now - self.t_wall) / max(t - self.start, 1e-12))
+        target = self.eta.target(t)
+        stop = (f"/ {self.end:.4g} s" if target >= self.end else
+                f"s (can stop at {target:.4g}, end {self.end:.4g})")
+        line = (f"pimpleFoam  t = {t:.4g} {stop}  step {steps}  {per_step:.2f} s/step  "
+                f"ETA {minutes(left)}" + (" (with swimming)" if self.eta.then else "") + "  " + (
                     "static mesh" if math.isnan(watch.max_non_orth) else
                     f"non-orth {watch.last_non_orth:.1f} deg (max {watch.max_non_orth:.1f})"))
         if line == self.last_line and not final:
@@ -214,4 +224,3 @@ class Progress:
             print("\r" + line, end="\n" if final else "", file=self.stream, flush=True)
         else:
             print(line, file=self.stream, flush=True)
-

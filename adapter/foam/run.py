@@ -26,6 +26,7 @@ from adapter.coupling.protocol import TOKEN_ENV
 from adapter.errors import SolverRunError
 from adapter.foam.case import parallel_settings, read_record, write_json
 from adapter.foam.dictionaries import parsed_dict, plugin_lib, set_decomposition
+from adapter.foam.eta import PairEta
 from adapter.foam.folders import (
     asked_start,
     processor_dirs,
@@ -79,7 +80,7 @@ def solver_command(case: Path) -> list:
 def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
              stop_when=None, host: str | None = None, port: int | None = None,
              token: str | None = None, launcher: str | None = None,
-             reconstruct: bool | None = None) -> dict:
+             reconstruct: bool | None = None, eta: PairEta | None = None) -> dict:
     """Run pimpleFoam on a prepared case with the step-server, and summarise the run.
 
     Meshes the case first when it has no mesh. Serial for one rank, otherwise decomposePar
@@ -95,7 +96,8 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
 
     ``stop_when(case) -> str | None`` is asked every :data:`STOP_WHEN_STEPS` solver steps and
     once at the end; a reason ends the run (written) as the mesh watch does, and is recorded
-    as ``stopped_because`` (not an error).
+    as ``stopped_because`` (not an error). ``eta``: the progress line's estimate by the rule
+    that stops the run (:class:`~adapter.foam.eta.PairEta`; None: to the end time).
 
     ``host``/``port``: the server listens on TCP there (port 0: any free one) and publishes
     it in ``<case>/.whale-adapter.endpoint``; else on the case's UNIX socket. ``token`` (None:
@@ -166,7 +168,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
             server = start_server(case, record, host=host, port=port, token=token)
         t_flow = time.perf_counter()
         rc, stopped = _run_watched(case, cmd, watch, record, start_time, end_time, progress,
-                                   stop_when, env=env)
+                                   stop_when, env=env, eta=eta)
         flow_wall = time.perf_counter() - t_flow
     finally:
         stop_server(server)
@@ -233,11 +235,11 @@ def _finished(case: Path, record: dict, ranks: int, reconstruct: bool, t_start: 
 
 
 def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_when=None,
-                 env=None):
+                 env=None, eta=None):
     """Run the solver, follow its log; stop it (write now) when the mesh gets too distorted,
     or when ``stop_when(case)`` gives a reason."""
     limit = float(record.get("max_non_orthogonality", 80.0))
-    show = Progress(end_time, start_time) if progress else None
+    show = Progress(end_time, start_time, eta=eta) if progress else None
     stopped = None
     asked_at = 0      # steps seen when stop_when was last asked
     with open(case / "log.pimpleFoam", "w") as log:

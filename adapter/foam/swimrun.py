@@ -27,7 +27,8 @@ from adapter.errors import CaseError
 from adapter.foam import loads as ld
 from adapter.foam.case import read_record, write_json
 from adapter.foam.dictionaries import parsed_dict
-from adapter.foam.folders import asked_start
+from adapter.foam.eta import PairEta, StopRule
+from adapter.foam.folders import asked_start, resume_time
 from adapter.foam.parallel import reconstruct_new_times
 from adapter.foam.report import write_report
 from adapter.foam.run import run_case
@@ -86,7 +87,12 @@ def run_swim_and_glide(case: Path, scene_record: dict, tolerance: float, ranks=N
             return f"steady: mean drag changed {change:.2%} over the last stroke period"
         return None
 
-    g_summary = _run_unless_done(glide, glide_steady, options)
+    # the ETA: gliding to its earliest steady period, then the whole swimming run to its
+    # earliest periodic cycle (adapter/foam/eta.py)
+    glide_rule = StopRule(start_up=period, period=period, end_time=_end_time(glide))
+    swim_rule = StopRule(start_up=ramp, period=period, end_time=_end_time(case))
+    g_summary = _run_unless_done(glide, glide_steady, {
+        **options, "eta": PairEta(glide_rule, then=swim_rule, then_from=resume_time(case))})
     g_stats = _stats(glide, period, period)
     if g_stats is None or not len(g_stats.starts):
         raise CaseError(f"the gliding run {glide} wrote no complete stroke period of loads; "
@@ -101,8 +107,12 @@ def run_swim_and_glide(case: Path, scene_record: dict, tolerance: float, ranks=N
                     f" {dp:.2%}, over the last two cycles")
         return None
 
-    s_summary = _run_unless_done(case, swim_periodic, options)
+    s_summary = _run_unless_done(case, swim_periodic, {**options, "eta": PairEta(swim_rule)})
     return answer(case, glide, scene_record, drag, tolerance, s_summary, g_summary)
+
+
+def _end_time(case: Path) -> float:
+    return float(parsed_dict(case / "system" / "controlDict")["endTime"])
 
 
 def _run_unless_done(case: Path, criterion, options: dict) -> dict:
@@ -200,7 +210,7 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
     write_json(case / SUMMARY, summary)
     from adapter.reports.render import plot_forces
 
-    plot_forces(data, gd, period, ramp, case / "forces.png")
+    plot_forces(data, gd, period, ramp, case / "forces.png", figures=summary["swimming_cost"])
     write_report(case, summary, COST_ROWS)
     return summary
 

@@ -15,13 +15,14 @@ DIR is either
 
 Into ``--out`` (default ``DIR/paraview``) go side and angled PNGs at the chosen times, an
 animation (``animation/frame.NNNN.png`` and ``animation.ogv``), ``whale.pvsm`` for the ParaView
-GUI, ``report.json`` (every picture with its time and camera) and ``paraview.log`` (pvbatch's
-whole output).
+GUI (its file names relative to its folder: :func:`relative_state`), ``report.json`` (every
+picture with its time and camera) and ``paraview.log`` (pvbatch's whole output).
 """
 
 from __future__ import annotations
 
 import argparse
+import html
 import json
 import os
 import re
@@ -278,12 +279,38 @@ def render(path, out=None, times=None, *, size=(1600, 900), animation: bool = Tr
         raise ParaViewError(f"pvbatch failed (exit code {rc}) drawing {path}; the last lines:\n"
                             f"{shown}\nwhole output: {log_path}")
     report = json.loads(report_file.read_text())
+    relative_state(out / report["state"])
     report["wall_s"] = wall
     write_json(report_file, report)
     print(f"paraview: {len(report['images'])} pictures, "
           f"{report.get('animation', {}).get('frames', 0)} animation frames and "
           f"{report['state']} in {out} ({wall:.1f} s)", file=stream, flush=True)
     return report
+
+
+#: a file-name property of a ParaView state file (readers' FileName, FileNames) and its values
+_FILE_PROPERTY_RE = re.compile(r'(<Property name="FileNames?"[^>]*>)(.*?)(</Property>)', re.S)
+_VALUE_RE = re.compile(r'(<Element index="\d+" value=")([^"]*)(")')
+
+
+def relative_state(state: Path) -> None:
+    """Rewrite the file names in the ParaView state file ``state`` relative to its folder
+    (``../case.foam``), so that the state still opens when the case moves: ParaView writes
+    them absolute. ParaView resolves a relative name against its working folder, so the
+    state opens from its own folder (docs/paraview.md, "The state file")."""
+    state = Path(state)
+    folder = state.parent.resolve()
+
+    def relative(value: re.Match) -> str:
+        name = html.unescape(value.group(2))
+        if os.path.isabs(name):
+            name = os.path.relpath(name, folder)
+        return value.group(1) + html.escape(name, quote=True) + value.group(3)
+
+    text = _FILE_PROPERTY_RE.sub(
+        lambda p: p.group(1) + _VALUE_RE.sub(relative, p.group(2)) + p.group(3),
+        state.read_text())
+    state.write_text(text)
 
 
 # --------------------------------------------------------------------------------------------
@@ -299,8 +326,9 @@ def register(subparsers) -> None:
         "and angled PNGs at chosen times, an animation, and whale.pvsm for the ParaView GUI. "
         "Needs ParaView and Xvfb (make paraview-deps).",
     )
-    p.add_argument("dir", metavar="DIR", type=in_folder,
-                   help="coupled case folder or dry-run output folder")
+    p.add_argument("dir", metavar="DIR", type=_drawable_folder,
+                   help="coupled case folder or dry-run output folder (make paraview: the "
+                   "case just run, CASE, default runs/default; DIR=out/dry-run a dry-run)")
     p.add_argument("--times", type=non_negative, nargs="+", metavar="T",
                    help="times (s) to draw, each moved to the nearest written time (default: "
                    "0, T/4, T/2, 3T/4 of the last stroke cycle, or every time when fewer)")
@@ -310,6 +338,15 @@ def register(subparsers) -> None:
     p.add_argument("--no-animation", action="store_true",
                    help="only the pictures at --times and the state file")
     p.set_defaults(func=_cmd_paraview)
+
+
+def _drawable_folder(text: str) -> Path:
+    """DIR, an existing folder; a missing one says how to make it."""
+    if not Path(text).expanduser().exists():
+        raise argparse.ArgumentTypeError(
+            f"{text} does not exist: run the case first (make run-case, or `whale-adapter "
+            f"run-case --case {text}`), or name a dry-run folder (make paraview DIR=out/dry-run)")
+    return in_folder(text)
 
 
 def _cmd_paraview(args: argparse.Namespace) -> int:

@@ -1,4 +1,5 @@
-"""Pictures of the dry-run: the key-point traces (matplotlib) and the frames (pyvista).
+"""Pictures of the dry-run: the key-point traces (matplotlib) and the frames (pyvista); the
+coupled case's forces.png (matplotlib).
 
 Both draw off screen: no display is needed (pyvista falls back to EGL or OSMesa).
 """
@@ -32,6 +33,12 @@ def plot_keypoints(kp: np.ndarray, names, period: float, path: Path) -> None:
     plt.close(fig)
 
 
+#: the colour bar of frames.png (in its viewport's coordinates): the tick labels at a fixed
+#: size and two decimals; its title is drawn as a text above the bar's box (render_frames)
+_BAR = {"title": "displacement (m)", "vertical": False, "position_x": 0.08, "position_y": 0.03,
+        "width": 0.84, "height": 0.14, "label_font_size": 13, "n_labels": 4, "fmt": "%.2f"}
+
+
 def render_frames(surf, states: dict, path: Path, size=(1800, 820)) -> None:
     """Side and angled views of the whale at each labelled state, one column per state."""
     import pyvista as pv
@@ -53,7 +60,14 @@ def render_frames(surf, states: dict, path: Path, size=(1800, 820)) -> None:
             plotter.subplot(row, col)
             plotter.add_mesh(mesh.copy(), scalars="displacement (m)", cmap="viridis",
                              clim=(0, 0.12 * L), show_scalar_bar=(row == 1 and col == 0),
-                             smooth_shading=True)
+                             scalar_bar_args=_BAR, smooth_shading=True)
+            if row == 1 and col == 0:
+                # VTK's horizontal bar draws its title on the tick labels, whatever its
+                # height and separation: the title is a text of its own, above the bar's box
+                plotter.scalar_bars[_BAR["title"]].SetTitle("")
+                plotter.add_text(_BAR["title"], position=(
+                    _BAR["position_x"], _BAR["position_y"] + _BAR["height"] + 0.01),
+                    viewport=True, font_size=9)
             plotter.add_text(f"{label} ({view})", font_size=9)
             if view == "side":
                 plotter.camera_position = [
@@ -66,22 +80,56 @@ def render_frames(surf, states: dict, path: Path, size=(1800, 820)) -> None:
     plotter.close()
 
 
-def plot_forces(swim: dict, glide: dict, period: float, start_up: float, path: Path) -> None:
-    """forces.png: Fx, Fz and power of the swimming whale against time (loads.dat columns),
-    the gliding drag beside them, stroke cycles marked and the discarded start-up greyed."""
+def forces_headline(figures: dict) -> str:
+    """forces.png's headline: gliding drag, mean Fx (negative: net thrust), mean power and
+    Froude efficiency from the ``swimming_cost`` figures (N, W); a figure not there is left out.
+    """
+    parts = []
+    fx = figures.get("swimming_mean_fx_N")
+    for key, text in (("gliding_drag_N", "gliding drag {:,.0f} N"),
+                      ("swimming_mean_fx_N", "swimming mean Fx {:,.0f} N (net "
+                       + ("thrust)" if fx is not None and fx < 0 else "drag)")),
+                      ("swimming_mean_power_W", "mean power {:,.0f} W"),
+                      ("froude_efficiency", "Froude efficiency {:.2f}")):
+        if figures.get(key) is not None:
+            parts.append(text.format(figures[key]))
+    return "   ".join(parts)
+
+
+def forces_figure(swim: dict, glide: dict, period: float, start_up: float,
+                  figures: dict | None = None):
+    """The matplotlib figure of forces.png: Fx, Fz and power of the swimming whale against time
+    (loads.dat columns), the gliding drag beside them, stroke cycles marked, the discarded
+    start-up greyed; with ``figures`` (``swimming_cost`` of adapter-summary.json) the cycle
+    means of Fx and power as a black segment over each cycle, the gliding drag as a level line
+    and the headline numbers (:func:`forces_headline`) above."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    figures = figures or {}
+    means = figures.get("cycle_means") or {}
     t = swim["Time"]
     measured = t > start_up
-    fig, axes = plt.subplots(3, 1, figsize=(9, 7.5), dpi=110, sharex=True)
-    rows = (("total:Fx", "Fx (N)"), ("total:Fz", "Fz (N)"), ("total:P", "power into water (W)"))
-    for ax, (key, label) in zip(axes, rows, strict=True):
+    fig, axes = plt.subplots(3, 1, figsize=(9, 8), dpi=110, sharex=True)
+    rows = (("total:Fx", "Fx (N)\nnegative: net thrust", "fx_N"), ("total:Fz", "Fz (N)", None),
+            ("total:P", "power into water (W)", "power_W"))
+    for ax, (key, label, mean_key) in zip(axes, rows, strict=True):
         ax.plot(t, swim[key], lw=1.2, color="C0", label="swimming")
         if glide and key != "total:P":
             ax.plot(glide["Time"], glide[key], lw=1.0, color="C1", ls="--", label="gliding")
+        if mean_key and means.get(mean_key):
+            for k, (a, m) in enumerate(zip(means["start_s"], means[mean_key], strict=True)):
+                ax.plot([a, a + period], [m, m], color="k", lw=2.2,
+                        label="cycle mean" if k == 0 else None)
+            unit = "N" if mean_key == "fx_N" else "W"
+            ax.annotate(f"last cycle mean {means[mean_key][-1]:,.0f} {unit}",
+                        (means["start_s"][-1] + period, means[mean_key][-1]),
+                        xytext=(-4, 5), textcoords="offset points", ha="right", fontsize=8)
+        if key == "total:Fx" and figures.get("gliding_drag_N") is not None:
+            ax.axhline(figures["gliding_drag_N"], color="C1", lw=1.0, ls=":",
+                       label=f"gliding drag {figures['gliding_drag_N']:,.0f} N")
         ax.axvspan(0, start_up, color="0.88", zorder=0)
         for c in np.arange(start_up, t[-1] + 1e-9, period):
             ax.axvline(c, color="0.6", lw=0.8, zorder=0)
@@ -94,10 +142,22 @@ def plot_forces(swim: dict, glide: dict, period: float, start_up: float, path: P
                 lo, hi = min(lo, float(glide[key][-1])), max(hi, float(glide[key][-1]))
             pad = 0.15 * max(hi - lo, 1e-9)
             ax.set_ylim(min(lo - pad, 0.0) if key == "total:P" else lo - pad, hi + pad)
-    axes[0].legend(loc="upper right", fontsize=8)
-    axes[0].set_title("Loads on the whale (grey: start-up, discarded and off scale; lines: "
-                      "stroke cycles)", fontsize=10)
+    axes[0].legend(loc="upper right", fontsize=8, ncol=2)
+    axes[2].legend(loc="upper right", fontsize=8)
+    title = ("Loads on the whale (grey: start-up, discarded and off scale; lines: stroke "
+             "cycles)")
+    headline = forces_headline(figures)
+    axes[0].set_title(title + ("\n" + headline if headline else ""), fontsize=10)
     axes[-1].set_xlabel("time (s)")
     fig.tight_layout()
+    return fig
+
+
+def plot_forces(swim: dict, glide: dict, period: float, start_up: float, path: Path,
+                figures: dict | None = None) -> None:
+    """forces.png (:func:`forces_figure`)."""
+    import matplotlib.pyplot as plt
+
+    fig = forces_figure(swim, glide, period, start_up, figures)
     fig.savefig(path)
     plt.close(fig)

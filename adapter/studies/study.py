@@ -46,7 +46,7 @@ from adapter.foam.case import CASE_RECORD, prepare_case, read_record, write_json
 from adapter.foam.mesh import mesh_case
 from adapter.foam.parameters import case_parameters
 from adapter.foam.summary import finite
-from adapter.options import count, in_file, number, out_folder, positive
+from adapter.options import count, default_folder, in_file, number, out_folder, positive
 from adapter.studies.study_analysis import analyse, case_done
 from adapter.studies.study_report import format_study, plot_accuracy_vs_cost, write_study_report
 
@@ -293,7 +293,9 @@ def register(subparsers) -> None:
         "to continue a stopped study (docs/case.md, 'The flow study').")
     p.add_argument("--scene", type=in_file, help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
-    p.add_argument("--out", type=out_folder, help="study folder (default: runs/study-<preset>)")
+    p.add_argument("--out", type=out_folder,
+                   help="study folder (default: runs/study-<scene file's stem> with --scene, "
+                   "as make study SCENE=my.toml gives runs/study-my; else runs/study-<preset>)")
     p.add_argument("--ratio", type=number(float, 1.3), default=DEFAULT_RATIO,
                    help=f"refinement ratio between the meshes, >= 1.3 (default {DEFAULT_RATIO})")
     p.add_argument("--finest", choices=FINEST, default="scene",
@@ -324,7 +326,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
         raise UsageError(f"--speeds: {exc}") from None
     if "speeds" in parts and len(speeds) < 3:
         raise UsageError("--speeds: give at least three speeds")
-    out = Path(args.out or Path("runs") / f"study-{scene.name}")
+    out = Path(args.out or default_folder(args.scene, args.preset, prefix="study-"))
     study = run_study(scene, out, ratio=args.ratio, speeds=speeds, parts=parts,
                       finest=args.finest, ranks=args.ranks, scene_file=args.scene,
                       progress=not args.quiet)

@@ -13,7 +13,8 @@ thin, faint wireframe over the patch (when present).
 
 Writes into OUT: ``side_t<t>.png`` and ``angled_t<t>.png`` at each ``--times`` value (the
 paper's Figures 2-5 views), ``animation/frame.NNNN.png`` (the side view at every data time),
-``whale.pvsm`` (a state file for the ParaView GUI, absolute data paths) and ``report.json``
+``whale.pvsm`` (a state file for the ParaView GUI; ParaView writes its data paths absolute,
+the driver rewrites them relative to OUT) and ``report.json``
 (every picture with its time and camera, the colour ranges, stage timings). Colour ranges are
 fixed, so pictures at different times compare: |U| and the displacement over all data times,
 the whale's pressure over the pictures' times (the last stroke cycle: the start-up's
