@@ -28,7 +28,7 @@ JOBS ?= 2
 scene_args = $(if $(filter %.toml,$(SCENE)),--scene $(SCENE),--preset $(SCENE))
 
 .PHONY: help setup venv system openfoam plugin test lint dry-run calibrate run-case study bench bench-flow \
-        chart paraview paraview-deps mutation validate clean
+        chart paraview paraview-deps chromium-deps mutation validate clean
 
 help:
 	@sed -n '1,/^$$/p' Makefile
@@ -54,7 +54,11 @@ plugin: openfoam
 paraview-deps:
 	@bash scripts/install_paraview.sh
 
-setup: venv system openfoam plugin paraview-deps
+# the browser that tests/test_report.py opens report.html in
+chromium-deps:
+	@bash scripts/install_chromium.sh
+
+setup: venv system openfoam plugin paraview-deps chromium-deps
 
 lint: venv
 	$(BIN)/ruff check adapter tests scripts

@@ -197,6 +197,8 @@ def test_study_machinery_with_a_model_runner_stops_resumes_and_answers(tmp_path,
     assert sp["speed_uncertainty_m_s"] == pytest.approx(1.25 * 0.5 * h2**2 / (600 * us),
                                                         rel=1e-6)
     assert (out / S.CHART).stat().st_size > 10_000
+    page = (out / R.REPORT).read_text()   # the page: tests/test_report.py opens one in chromium
+    assert "mesh-2/speed-1.15" in page and page.count("data:image/png;base64,") == 1
     table = R.format_study(study)
     assert "mean power (W)" in table and "self-propelled speed" in table
     # the chooser: the coarsest mesh within the tolerance

@@ -178,6 +178,10 @@ def test_run_case_runs_gliding_and_swimming_to_a_periodic_state(tmp_path):
     assert res.returncode == 0, res.stderr[-3000:]
     assert "Froude efficiency" in res.stdout and "gliding drag" in res.stdout
     s = json.loads((case / "adapter-summary.json").read_text())["swimming_cost"]
+    # the report beside it (tests/test_report.py opens one in a browser)
+    page = (case / "report.html").read_text()
+    assert "What swimming costs the whale" in page and "data:image/png;base64," in page
+    assert "(report: " in res.stdout
     glide = ld.read_loads(case / "gliding")
     swim = ld.read_loads(case)
     period = 1 / 0.13

@@ -19,6 +19,7 @@ from adapter.foam.case import (
 from adapter.foam.dictionaries import DECOMPOSITIONS, choose_decomposition, parsed_dict
 from adapter.foam.folders import resume_time
 from adapter.foam.mesh import mesh_case
+from adapter.foam.report import REPORT, write_report
 from adapter.foam.run import run_case
 from adapter.foam.summary import SUMMARY, format_summary
 from adapter.foam.swimrun import COST_ROWS, run_swim_and_glide
@@ -113,12 +114,14 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
         print(f"\n{case}: what swimming costs the whale")
         print(format_summary(summary, COST_ROWS))
         print(f"(all figures: {case / SUMMARY}; picture: {case / 'forces.png'})")
+        print(f"(report: {case / REPORT})")
         return 0
     token = resolve_token(args.token_file)
     summary = run_case(case, ranks=args.ranks, host=args.host, port=args.port, token=token,
                        launcher=args.launcher, reconstruct=args.reconstruct)
     print(format_summary(summary))
     print(f"(all figures: {case / SUMMARY})")
+    print(f"(report: {write_report(case, summary)})")
     return 0
 
 

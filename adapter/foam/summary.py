@@ -138,6 +138,15 @@ SUMMARY_ROWS = [
 def format_summary(summary: dict, rows=None) -> str:
     """The run's summary as a two-column text table, one line per row of ``rows`` (default
     :data:`SUMMARY_ROWS`) whose key the summary holds (missing or None: left out)."""
+    lines = summary_rows(summary, rows)
+    width = max((len(label) for label, _ in lines), default=0)
+    return "\n".join(f"{label:<{width}}  {text}" for label, text in lines)
+
+
+def summary_rows(summary: dict, rows=None) -> list[tuple[str, str]]:
+    """``(label, formatted value)`` for each row of ``rows`` (default :data:`SUMMARY_ROWS`)
+    whose key the summary holds (missing or None: left out): :func:`format_summary`'s lines,
+    and the report's tables."""
     lines = []
     for label, key, fmt in rows or SUMMARY_ROWS:
         value = summary
@@ -150,5 +159,4 @@ def format_summary(summary: dict, rows=None) -> str:
         except (TypeError, ValueError):
             text = str(value)
         lines.append((label, text))
-    width = max((len(label) for label, _ in lines), default=0)
-    return "\n".join(f"{label:<{width}}  {text}" for label, text in lines)
+    return lines

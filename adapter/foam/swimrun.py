@@ -13,7 +13,8 @@ From the loads of both (adapter/foam/loads.py): mean drag gliding, mean Fx and p
 Froude efficiency and cost of transport, with the spike checks and van der Hoop et al.'s
 reference drag; the drag, Fx and power also per body region (body, flippers, flukes:
 ``swimming_cost/regions``). Written into ``<case>/adapter-summary.json`` under
-``"swimming_cost"`` and drawn in ``<case>/forces.png``.
+``"swimming_cost"``, drawn in ``<case>/forces.png`` and put on ``<case>/report.html``
+(:mod:`adapter.foam.report`).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from adapter.foam import loads as ld
 from adapter.foam.case import read_record, write_json
 from adapter.foam.dictionaries import parsed_dict
 from adapter.foam.parallel import reconstruct_new_times
+from adapter.foam.report import write_report
 from adapter.foam.run import run_case
 from adapter.foam.summary import SUMMARY, finite
 from adapter.foamfiles import time_dirs
@@ -139,7 +141,7 @@ def yplus_over_run(case: Path) -> dict:
 
 def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
            s_summary: dict, g_summary: dict) -> dict:
-    """The figures, into adapter-summary.json (``swimming_cost``) and forces.png."""
+    """The figures, into adapter-summary.json (``swimming_cost``), forces.png and report.html."""
     period = float(rec["period_s"])
     ramp = float(rec.get("ramp_s", period))
     data = ld.read_loads(case)
@@ -196,6 +198,7 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
     from adapter.reports.render import plot_forces
 
     plot_forces(data, gd, period, ramp, case / "forces.png")
+    write_report(case, summary, COST_ROWS)
     return summary
 
 

@@ -251,7 +251,7 @@ def register(subparsers) -> None:
                               description="Animate the spring-mass whale without fluid (no "
                               "OpenFOAM needed) and write whale.pvd (a .vtp surface per frame), "
                               "keypoints.csv, summary.json, keypoints.png and frames.png into "
-                              "--out (README.md, 'The dry-run').")
+                              "--out (docs/dry-run.md).")
     p.add_argument("--scene", help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
     p.add_argument("--cycles", type=int, help="stroke cycles (default: scene output.cycles)")

@@ -47,7 +47,7 @@ from adapter.foam.mesh import mesh_case
 from adapter.foam.parameters import case_parameters
 from adapter.foam.summary import finite
 from adapter.studies.study_analysis import analyse, case_done
-from adapter.studies.study_report import format_study, plot_accuracy_vs_cost
+from adapter.studies.study_report import format_study, plot_accuracy_vs_cost, write_study_report
 
 PLAN = "study-plan.json"
 RESULT = "study.json"
@@ -273,6 +273,7 @@ def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS
         plot_accuracy_vs_cost(study, out / CHART)
     except AdapterError as exc:
         log(f"no chart: {exc}")
+    write_study_report(out, study, out / CHART)
     return study
 
 

@@ -1,5 +1,6 @@
-"""What the flow study shows: the accuracy-against-cost chart and the short table printed at
-its end, both from study.json's content (:mod:`adapter.studies.study_analysis`).
+"""What the flow study shows: the accuracy-against-cost chart, the short table printed at its
+end and ``<study>/report.html`` (the two and a table of the cases on one offline page), all from
+study.json's content (:mod:`adapter.studies.study_analysis`).
 
 They stay with the studies rather than in :mod:`adapter.reports` because they read the
 layout of study.json, which the study's analysis defines.
@@ -7,9 +8,27 @@ layout of study.json, which the study's analysis defines.
 
 from __future__ import annotations
 
+from datetime import datetime, timezone
 from pathlib import Path
 
 from adapter.errors import AdapterError
+
+REPORT = "report.html"
+
+#: the case table of the page: (header, key of a case in study.json, format)
+_CASE_COLUMNS = [
+    ("cells", "cells", "{:,}"),
+    ("background cell", "background_cell_m", "{:.3g} m"),
+    ("flow step", "delta_t_s", "{:.4g} s"),
+    ("speed", "speed_m_s", "{:.3g} m/s"),
+    ("gliding drag", "gliding_drag", "{:.0f} N"),
+    ("mean Fx swimming", "swimming_fx", "{:.0f} N"),
+    ("mean power", "swimming_power", "{:.0f} W"),
+    ("Froude eff.", "froude_efficiency", "{:.2f}"),
+    ("y+ <= 300 (worst)", "yplus_area_le_300", "{:.1%}"),
+    ("periodic", "periodic_reached", "{}"),
+    ("wall s per cycle", "wall_s_per_cycle", "{:.0f}"),
+]
 
 
 def plot_accuracy_vs_cost(study: dict, path: Path) -> None:
@@ -107,3 +126,43 @@ def format_study(study: dict) -> str:
     if study.get("not_finished"):
         lines.append("not finished: " + ", ".join(study["not_finished"]))
     return "\n".join(lines)
+
+
+def write_study_report(out, study: dict, chart: Path | None = None) -> Path:
+    """``<out>/report.html``: the study's table (:func:`format_study`), the accuracy-against-cost
+    chart when it was drawn, one row per case and the versions used. Returns its path."""
+    from adapter.foam.report import versions_section
+    from adapter.reports.html_page import Section, write_page
+
+    out = Path(out)
+    problems = [f"{name}: failed: {why}" for name, why in (study.get("failed") or {}).items()]
+    if study.get("not_finished"):
+        problems.append("not finished: " + ", ".join(study["not_finished"])
+                        + " (run the same command again to continue)")
+    rows = []
+    for name, case in study.get("cases", {}).items():
+        cells = [name]
+        for _, key, fmt in _CASE_COLUMNS:
+            value = (case or {}).get(key)
+            cells.append("" if value is None else fmt.format(value) if not isinstance(
+                value, bool) else ("yes" if value else "no"))
+        rows.append(tuple(cells))
+    sections = [
+        Section("The flow study", warning="; ".join(problems),
+                text=("Three meshes refined by one ratio (Richardson extrapolation and the GCI "
+                      "of gliding drag, mean swimming Fx and mean power), mesh 2 with the flow "
+                      "step halved, and mesh 2 at other speeds (the self-propelled speed). A "
+                      "negative mean Fx is net thrust."),
+                pre=format_study(study)),
+        Section("Cases", header=("case", *(h for h, _, _ in _CASE_COLUMNS)), rows=tuple(rows)),
+    ]
+    if chart is not None and Path(chart).is_file():
+        sections.append(Section("Accuracy against cost", images=((
+            "each figure's difference from its extrapolated value (% of its scale) against "
+            "the wall time per swimming stroke cycle of each mesh", Path(chart)),)))
+    sections.append(versions_section())
+    subtitle = (f"{out.resolve()} · scene {study.get('scene')} · ratio {study.get('ratio')} · "
+                f"written {datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')} by "
+                "whale-adapter study · every figure: study.json; each case's own report.html "
+                "is in its folder")
+    return write_page(out / REPORT, f"whale-adapter flow study: {out.name}", subtitle, sections)
