@@ -22,6 +22,11 @@ def test_naca0012_profile_is_12_percent_thick_at_0_3_chord_with_a_sharp_edge():
     assert 2 * foil.half_thickness(x).max() == pytest.approx(0.11894, abs=5e-5)
     assert foil.half_thickness(1.0) == pytest.approx(0.0, abs=1e-7)
     assert foil.half_thickness(0.0) == 0.0
+    # the TMR's own rescaled polynomial (naca0012_val.html)
+    for x in (0.05, 0.3, 0.9):
+        tmr = 0.594689181 * (0.298222773 * x**0.5 - 0.127125232 * x - 0.357907906 * x**2
+                             + 0.291984971 * x**3 - 0.105174606 * x**4)
+        assert foil.half_thickness(x) == pytest.approx(tmr, rel=1e-7)
 
 
 def test_expansion_ratio_of_a_hand_grading():
@@ -125,16 +130,24 @@ def test_naca0012_quick_mode_runs_both_angles(tmp_path):
 
 @_case_marks
 def test_flapping_quick_mode_is_served_by_the_step_server(tmp_path):
+    from adapter.body.meshfile import read_surface
+    from adapter.body.polygons import triangulate
     from adapter.coupling.mapping import PatchMap
     from adapter.foam.loads import read_loads
+    from adapter.foam.yplus import read_boundary, read_faces, read_points
 
     results = run_suite(tmp_path, ["flapping"], quick=True, echo=lambda s: None)
     r = results[0]
     case = tmp_path / "flapping" / "St0.2"
-    # the server's surface is the mesh's wall: every patch point maps onto a node of it
-    pts, tris = foil.wall_surface(case)
-    pm = PatchMap(pts, pts, tris, length=1.0)
-    assert pm.max_distance == pytest.approx(0.0, abs=1e-12)
+    # the server's surface is the mesh's wall: every patch point is a node of the STL
+    stl_points, stl_faces = read_surface(case / "foil.stl")
+    mesh = case / "constant" / "polyMesh"
+    patch = read_boundary(mesh / "boundary")[foil.WALL]
+    faces = read_faces(mesh / "faces")[patch["startFace"]:patch["startFace"] + patch["nFaces"]]
+    patch_points = read_points(mesh / "points")[np.unique(np.concatenate(faces))]
+    assert len(stl_points) == len(patch_points)
+    pm = PatchMap(patch_points, stl_points, triangulate(stl_points, stl_faces), length=1.0)
+    assert pm.max_distance < 1e-6          # the STL is single precision
     served = (case / "log.server").read_text()
     steps = flapping.STEPS_PER_CYCLE[True] * flapping.CYCLES[True]
     assert f"{round(steps)} requests served" in served

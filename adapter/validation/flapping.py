@@ -66,7 +66,7 @@ QUICK = foil.FoilMesh(n_front=6, n_rear=6, n_wake=4, n_normal=8, first_cell=5e-3
                       radius=10.0, wake=10.0, le_cell=0.03, te_cell=0.03)
 #: cycles: the ramp-in (discarded), then the measured ones; steps a cycle
 RAMP_CYCLES = 1
-CYCLES = {True: 0.02, False: 3}
+CYCLES = {True: 0.02, False: 2}
 STEPS_PER_CYCLE = {True: 400, False: 600}
 #: whaleBlendedDisplacement: rigid within INNER chords of the foil, still beyond OUTER
 INNER, OUTER = 1.0, 8.0
