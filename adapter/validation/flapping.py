@@ -39,7 +39,6 @@ import numpy as np
 from adapter.coupling.protocol import CONNECT_TIMEOUT_S, REPLY_TIMEOUT_S
 from adapter.errors import CaseError
 from adapter.foam.dictionaries import parsed_dict, plugin_lib
-from adapter.foam.loads import read_loads
 from adapter.foam.stepserver import start_server, stop_server
 from adapter.validation import foil
 from adapter.validation.suite import CaseResult, Check
@@ -198,12 +197,10 @@ def run_strouhal(case: Path, st: float, mesh: foil.FoilMesh, quick: bool, ranks:
 def strouhal_figures(case: Path, times: dict, mesh: foil.FoilMesh, quick: bool) -> dict:
     """CT and eta over the whole cycles after the ramp-in (quick: every step); the thrust's
     pressure part; the change of CT between the last two cycles."""
-    loads = read_loads(case)
+    loads = foil.wall_loads(case)
     w = foil.WALL
-    if not loads or f"{w}:Fx" not in loads:
-        raise CaseError(f"{case}: no loads of patch {w} in postProcessing/loads")
     t, period = loads["Time"], times["period_s"]
-    q_area = 0.5 * RHO * SPEED**2 * mesh.chord * mesh.span * mesh.chord
+    q_area = foil.force_scale(mesh, RHO, SPEED)
     start = 0.0 if quick else RAMP_CYCLES * period
     cycles = max(1, int(math.floor((t[-1] - start) / period + 1e-6)))
     per_cycle = []
@@ -238,11 +235,11 @@ def run(out_dir, *, ranks: int = 1, quick: bool = False) -> CaseResult:
             Check(f"  CT change, last two cycles, St {st:g}", f["ct_cycle_change"]),
             Check(f"  pitch amplitude theta0 at St {st:g}", pitch_amplitude_deg(st), unit="deg"),
         ]
-    for c in rows:
-        c.measured = float(c.measured)      # numpy's scalars are not JSON's
+    foil.plain_floats(rows)
     first = figs[sts[0]]
     notes = [f"{first['steps']} steps at St {sts[0]:g} (dt = T / {STEPS_PER_CYCLE[quick]}), "
-             f"{first['cycles']} measured cycle(s) after a {RAMP_CYCLES}-cycle ramp; solver "
+             f"{first['cycles']} measured cycle(s) after a {0 if quick else RAMP_CYCLES}-cycle "
+             "ramp; solver "
              + ", ".join(f"{f['solver_s']:.0f} s" for f in figs.values())
              + f"; worst non-orthogonality at rest "
              f"{first.get('max_non_orthogonality', math.nan):.1f} deg",

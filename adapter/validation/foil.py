@@ -304,6 +304,30 @@ def run_solver(case: Path, ranks: int = 1) -> Path:
     return log
 
 
+def wall_loads(case: Path) -> dict:
+    """whaleLoads' columns of the case (:func:`~adapter.foam.loads.read_loads`); raises
+    :class:`~adapter.errors.CaseError` when the foil's are missing (the run wrote none)."""
+    from adapter.foam.loads import read_loads
+
+    loads = read_loads(case)
+    if not loads or f"{WALL}:Fx" not in loads:
+        raise CaseError(f"{case}: no loads of patch {WALL} in postProcessing/loads; see "
+                        f"{case / 'log.pimpleFoam'}")
+    return loads
+
+
+def force_scale(m: FoilMesh, rho: float, speed: float) -> float:
+    """0.5 rho U^2 c s (N): the force of a coefficient of one on the one-cell span."""
+    return 0.5 * rho * speed**2 * m.chord * m.span * m.chord
+
+
+def plain_floats(rows: list) -> list:
+    """The checks with their measured figures as Python floats (numpy's are not JSON's)."""
+    for c in rows:
+        c.measured = float(c.measured)
+    return rows
+
+
 def wall_surface(case: Path) -> tuple:
     """The foil patch's points (P, 3) and the closed surface's triangles (T, 3) made of them:
     each wall quad split in two and the two end caps fanned from the leading edge; outward."""

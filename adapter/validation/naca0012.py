@@ -32,9 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from adapter.errors import CaseError
 from adapter.foam.dictionaries import parsed_dict
-from adapter.foam.loads import ittc57, read_loads
+from adapter.foam.loads import ittc57
 from adapter.foam.yplus import yplus_stats
 from adapter.validation import foil
 from adapter.validation.suite import CaseResult, Check
@@ -118,11 +117,9 @@ def run_angle(case: Path, alpha: float, mesh: foil.FoilMesh, iterations: int,
 def angle_figures(case: Path, alpha: float, mesh: foil.FoilMesh) -> dict:
     """Cd, Cl (total, pressure, viscous) at the last iteration, their settling over the last
     :data:`SETTLE_WINDOW` of the run, the wetted length and y+."""
-    loads = read_loads(case)
+    loads = foil.wall_loads(case)
     w = foil.WALL
-    if not loads or f"{w}:Fx" not in loads:
-        raise CaseError(f"{case}: no loads of patch {w} in postProcessing/loads")
-    q_area = 0.5 * RHO * SPEED**2 * mesh.chord * mesh.span * mesh.chord
+    q_area = foil.force_scale(mesh, RHO, SPEED)
     out = {}
     for part, key in (("", "F"), ("_p", "Fp"), ("_v", "Fv")):
         cd, cl = coefficients(loads[f"{w}:{key}x"][-1], loads[f"{w}:{key}y"][-1], alpha, q_area)
@@ -148,7 +145,9 @@ def run(out_dir, *, ranks: int = 1, quick: bool = False) -> CaseResult:
         checks=checks(figs), cells=mesh.cells, ranks=ranks, case_dir=str(out),
         notes=[f"{ITERATIONS[quick]} pseudo-time iterations of {DELTA_T:g} c/U a angle; "
                f"solver {figs[0.0]['solver_s']:.0f} s + {figs[10.0]['solver_s']:.0f} s; worst "
-               f"non-orthogonality {figs[0.0].get('max_non_orthogonality', math.nan):.1f} deg"])
+               f"non-orthogonality {figs[0.0].get('max_non_orthogonality', math.nan):.1f} deg",
+               *(["quick: a tiny mesh and a few iterations, the machinery only"] if quick
+                 else [])])
 
 
 def checks(figs: dict) -> list:
@@ -182,6 +181,4 @@ def checks(figs: dict) -> list:
                        source="steady state"),
                  Check(f"  {'Cd' if a else 'Cl'} change over the last 10 % at {a:g} deg",
                        f["cd_settle"] if a else f["cl_settle"])]
-    for c in rows:
-        c.measured = float(c.measured)      # numpy's scalars are not JSON's
-    return rows
+    return foil.plain_floats(rows)
