@@ -195,8 +195,8 @@ def run_strouhal(case: Path, st: float, mesh: foil.FoilMesh, quick: bool, ranks:
 
 
 def strouhal_figures(case: Path, times: dict, mesh: foil.FoilMesh, quick: bool) -> dict:
-    """CT and eta over the whole cycles after the ramp-in (quick: every step); the thrust's
-    pressure part; the change of CT between the last two cycles."""
+    """CT and eta over the whole cycles after the ramp-in (quick: every step), the thrust's
+    pressure part, and the change of CT between the last two of those cycles."""
     loads = foil.wall_loads(case)
     w = foil.WALL
     t, period = loads["Time"], times["period_s"]
@@ -212,7 +212,7 @@ def strouhal_figures(case: Path, times: dict, mesh: foil.FoilMesh, quick: bool) 
                                                q_area, SPEED))
     sel = t > start + 1e-9
     ct_p = float(-loads[f"{w}:Fpx"][sel].mean() / q_area)
-    ct, eta = (float(np.mean([c[i] for c in per_cycle])) for i in (0, 1))
+    ct, eta = thrust_and_efficiency(loads[f"{w}:Fx"][sel], loads[f"{w}:P"][sel], q_area, SPEED)
     change = abs(per_cycle[-1][0] - per_cycle[-2][0]) / abs(ct) if len(per_cycle) > 1 \
         else math.nan
     return {"ct": ct, "eta": eta, "ct_pressure": ct_p, "cycles": cycles,
