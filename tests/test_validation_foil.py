@@ -157,3 +157,12 @@ def test_flapping_quick_mode_is_served_by_the_step_server(tmp_path):
     by = {c.name: c for c in r.checks}
     assert by["  pitch amplitude theta0 at St 0.2"].measured == pytest.approx(17.1419, abs=1e-3)
     _finite_json(tmp_path / "validation.json")
+
+
+def test_a_case_that_is_not_a_foils_is_refused_not_removed(tmp_path):
+    (tmp_path / "system").mkdir()
+    (tmp_path / "system" / "controlDict").write_text("keep me")
+    with pytest.raises(CaseError, match="not a validation foil's"):
+        foil.prepare_foil_case(tmp_path, naca0012.QUICK, speed=1.0, nu=1e-6, rho=1025.0,
+                               alpha_deg=0.0, turbulence=True)
+    assert (tmp_path / "system" / "controlDict").read_text() == "keep me"

@@ -201,10 +201,16 @@ def prepare_foil_case(case: Path, m: FoilMesh, *, speed: float, nu: float, rho: 
     settings, wall treatment and function objects (forces, whaleLoads, yPlus) on patch
     ``foil``, the free stream at ``alpha_deg`` on ``farfield``, laminar or kOmegaSST.
 
-    Raises :class:`~adapter.errors.CaseError` when ``case`` already holds a case.
+    A foil case already in ``case`` (an earlier ``validate`` run's: it has the C-grid's
+    ``system/blockMeshDict`` with the ``foil`` patch) is removed first, so that a rerun starts
+    afresh; any other case there is refused (:class:`~adapter.errors.CaseError`).
     """
+    old = case / "system" / "blockMeshDict"
     if (case / "system" / "controlDict").exists():
-        raise CaseError(f"{case} already holds a case; remove it or give another --out")
+        if not (old.is_file() and f"{WALL}\n" in old.read_text() and FARFIELD in old.read_text()):
+            raise CaseError(f"{case} holds a case that is not a validation foil's; remove it "
+                            "or give another --out")
+        shutil.rmtree(case)
     check_foam()
     case.mkdir(parents=True, exist_ok=True)
     shutil.copytree(TEMPLATE_DIR, case, dirs_exist_ok=True)
