@@ -7,6 +7,7 @@
 #   make bench      performance figures (bench-flow: moving against static flow step); make chart: the numerics study; make paraview: pictures
 #   make validate   the flows with known answers (docs/validation.md; NP, VALIDATION)
 #   make mutation   mutation testing of the core modules (MODULES, JOBS; docs/mutation.md)
+#   make clean      remove outputs, keep the built plugin (make distclean: the build too)
 
 SHELL := /bin/bash
 PYTHON ?= python3
@@ -28,7 +29,7 @@ JOBS ?= 2
 scene_args = $(if $(filter %.toml,$(SCENE)),--scene $(SCENE),--preset $(SCENE))
 
 .PHONY: help setup venv system openfoam plugin test lint dry-run calibrate run-case study bench bench-flow \
-        chart paraview paraview-deps chromium-deps mutation validate clean
+        chart paraview paraview-deps chromium-deps mutation validate clean distclean
 
 help:
 	@sed -n '1,/^$$/p' Makefile
@@ -100,5 +101,10 @@ paraview: venv paraview-deps
 mutation: venv
 	$(BIN)/python scripts/mutation.py --jobs $(JOBS) $(MODULES)
 
+# keeps the built plugin (build/lib) and Debian's source package it is built from
+# (build/openfoam-src, 134 MB to fetch again); make distclean removes those too
 clean:
-	rm -rf out build/lib .pytest_cache
+	rm -rf out .pytest_cache build/plugin-src build/plugin-build.log
+
+distclean: clean
+	rm -rf build

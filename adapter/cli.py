@@ -10,12 +10,14 @@ study (:mod:`adapter.studies.study`), validate (:mod:`adapter.validation.suite`)
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import os
 import signal
 import sys
 import threading
 
-from adapter.errors import AdapterError
+from adapter.errors import AdapterError, GeometryError
 
 #: modules that register sub-commands; a module that is not there yet is skipped
 _COMMAND_MODULES = (
@@ -43,8 +45,26 @@ def version() -> str:
         return "unknown (not installed: pip install .)"
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (no usage block): what was wrong and
+    where to read more; exit code 2. Sub-command parsers are of the same class."""
+
+    def error(self, message, prog=None):
+        prog = prog or self.prog
+        self.exit(2, f"{prog}: error: {message} (see {prog} --help)\n")
+
+    def parse_args(self, args=None, namespace=None):
+        """As argparse's, an unknown option blamed on its sub-command, not on the whole."""
+        ns, extras = self.parse_known_args(args, namespace)
+        if extras:
+            command = getattr(ns, "command", None)
+            self.error(f"unrecognized arguments: {' '.join(extras)}",
+                       f"{self.prog} {command}" if command else None)
+        return ns
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="whale-adapter",
         description="Spring-mass right whale animation coupled to OpenFOAM (see README.md).",
     )
@@ -61,6 +81,16 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@contextlib.contextmanager
+def _quiet(quiet: bool):
+    """``--quiet``: nothing on stdout (warnings and errors go to stderr, and stay)."""
+    if not quiet:
+        yield
+        return
+    with open(os.devnull, "w") as sink, contextlib.redirect_stdout(sink):
+        yield
+
+
 def _terminate(signum, frame):
     """SIGTERM (a batch system's, a kill): unwind like Ctrl-C, so that the solver and the
     step-server that run-case started (in their own sessions) are stopped too."""
@@ -74,7 +104,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.command in ("run-case", "study") and main_thread:
         signal.signal(signal.SIGTERM, _terminate)
     try:
-        return int(args.func(args) or 0)
+        with _quiet(getattr(args, "quiet", False)):
+            return int(args.func(args) or 0)
+    except GeometryError as exc:    # the scene's surface: say which scene file
+        where = f"{args.scene}: " if getattr(args, "scene", None) else ""
+        print(f"whale-adapter {args.command}: error: {where}{exc}", file=sys.stderr)
+        return 2
     except AdapterError as exc:
         print(f"whale-adapter {args.command}: error: {exc}", file=sys.stderr)
         return 2

@@ -30,6 +30,12 @@ class CaseError(AdapterError, ValueError):
     case, was not made by ``run-case``, or holds no figures yet; the message says what to do."""
 
 
+class MeshError(CaseError):
+    """A case's mesh misses or mangles the body (too few whale faces for its levels, an area or
+    volume unlike the surface's, prism layers on too little of it); the message names the
+    setting that fixes it."""
+
+
 class FoamFileError(AdapterError, ValueError):
     """An OpenFOAM file (mesh, field, dictionary) cannot be read; the message names the file."""
 

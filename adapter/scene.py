@@ -22,16 +22,15 @@ PRESETS = ("default", "smoke", "fine")
 DATA_DIR = Path(__file__).parent / "data"
 
 
-def _positive(v):
-    return v > 0
+def _within(low, high=math.inf, ends="[]"):
+    """A field's check, low <= v <= high, "(" or ")" in ``ends`` excluding that end."""
+    def check(v):
+        return low <= v <= high and (v != low or ends[0] == "[") and (v != high or ends[1] == "]")
+    check.range = f"{ends[0]}{low:.10g}, {high:.10g}{ends[1]}".replace("inf]", "inf)")  # errors
+    return check
 
 
-def _non_negative(v):
-    return v >= 0
-
-
-def _fraction(v):
-    return 0.0 <= v <= 1.0
+_positive, _non_negative, _fraction = _within(0, ends="()"), _within(0), _within(0, 1)
 
 
 @dataclass(frozen=True)
@@ -40,9 +39,9 @@ class Geometry:
 
     source: str = "procedural"  #: "procedural" or a path to a mesh meshio can read
     length_m: float = field(default=15.0, metadata={"check": _positive})
-    nodes: int = field(default=11272, metadata={"check": lambda v: 400 <= v <= 2_000_000})
+    nodes: int = field(default=11272, metadata={"check": _within(400, 2_000_000)})
     #: fluke span as a fraction of L (sources give 0.22-0.35 L)
-    fluke_span: float = field(default=0.32, metadata={"check": lambda v: 0.1 <= v <= 0.5})
+    fluke_span: float = field(default=0.32, metadata={"check": _within(0.1, 0.5)})
     #: a mesh file's landmarks (adapter.body.landmarks.LANDMARKS), in its coordinates (m)
     landmarks: dict = field(default_factory=dict)
     landmark_tolerance: float = field(default=0.01, metadata={"check": _positive})
@@ -92,13 +91,13 @@ class Stroke:
     fluke_table: str = "default"
     fluke_angle_scale: float = field(default=1.0, metadata={"check": _non_negative})
     #: the fluke angle ramps in from flat over this fraction of the first cycle ("negate")
-    fluke_ramp: float = field(default=0.25, metadata={"check": lambda v: 0 <= v <= 4})
+    fluke_ramp: float = field(default=0.25, metadata={"check": _within(0, 4)})
     #: a bending joint this long behind the tail base (fraction of L); 0: the paper's hinge
-    fluke_joint: float = field(default=0.0, metadata={"check": lambda v: 0 <= v <= 0.1})
+    fluke_joint: float = field(default=0.0, metadata={"check": _within(0, 0.1)})
     #: "smooth" (continuous wall velocity) or "negate" (the paper: velocities negated)
     reversal: str = field(default="smooth", metadata={"choices": ("smooth", "negate")})
     #: "smooth": the stroke and the fluke angle ramp in from rest over this many cycles
-    ramp_cycles: float = field(default=1.0, metadata={"check": lambda v: 0 <= v <= 10})
+    ramp_cycles: float = field(default=1.0, metadata={"check": _within(0, 10)})
     #: "smooth": the nodes' critically damped tether's frequency, x frequency_hz (0: none)
     tether: float = field(default=4.0, metadata={"check": _non_negative})
 
@@ -123,7 +122,7 @@ class Integrator:
     )
     #: internal step (s); 0 chooses the largest stable step times ``safety``
     dt_s: float = field(default=0.0, metadata={"check": _non_negative})
-    safety: float = field(default=0.5, metadata={"check": lambda v: 0 < v <= 1})
+    safety: float = field(default=0.5, metadata={"check": _within(0, 1, "(]")})
 
 
 @dataclass(frozen=True)
@@ -140,7 +139,7 @@ class Rigid:
     rotation_phase_deg: float = 0.0
     rotation_axis: tuple = field(default=(0.0, 0.0, 1.0), metadata={"vector": True, "check": any})
     rotation_centre_m: tuple = field(default=(0.0, 0.0, 0.0), metadata={"vector": True})
-    ramp_cycles: float = field(default=0.0, metadata={"check": lambda v: 0 <= v <= 10})
+    ramp_cycles: float = field(default=0.0, metadata={"check": _within(0, 10)})
 
 
 @dataclass(frozen=True)
@@ -156,9 +155,9 @@ class Flow:
 class Output:
     """Dry-run output."""
 
-    cycles: int = field(default=2, metadata={"check": lambda v: v >= 1})
-    frames_per_cycle: int = field(default=24, metadata={"check": lambda v: v >= 4})
-    samples_per_cycle: int = field(default=120, metadata={"check": lambda v: v >= 8})
+    cycles: int = field(default=2, metadata={"check": _within(1)})
+    frames_per_cycle: int = field(default=24, metadata={"check": _within(4)})
+    samples_per_cycle: int = field(default=120, metadata={"check": _within(8)})
 
 
 @dataclass(frozen=True)
@@ -176,17 +175,17 @@ class Case:
     #: snappyHexMesh surface refinement levels (min, max)
     refinement: tuple = field(default=(2, 4))
     #: snappyHexMesh level near the flippers and the flukes' blade (0: none; docs/scene.md)
-    flipper_level: int = field(default=5, metadata={"check": lambda v: 0 <= v <= 8})
-    fluke_level: int = field(default=5, metadata={"check": lambda v: 0 <= v <= 8})
+    flipper_level: int = field(default=5, metadata={"check": _within(0, 8)})
+    fluke_level: int = field(default=5, metadata={"check": _within(0, 8)})
     fluke_clearance: float = field(default=12.0, metadata={"check": _non_negative})
     #: simulated stroke cycles; end time = cycles / frequency unless end_time_s > 0
     cycles: float = field(default=1.0, metadata={"check": _positive})
     end_time_s: float = field(default=0.0, metadata={"check": _non_negative})
     #: flow step (s); 0 chooses 0.5 * smallest cell / speed
     dt_s: float = field(default=0.0, metadata={"check": _non_negative})
-    writes_per_cycle: int = field(default=4, metadata={"check": lambda v: v >= 1})
+    writes_per_cycle: int = field(default=4, metadata={"check": _within(1)})
     turbulence: str = field(default="kOmegaSST", metadata={"choices": ("kOmegaSST", "laminar")})
-    ranks: int = field(default=1, metadata={"check": lambda v: v >= 1})
+    ranks: int = field(default=1, metadata={"check": _within(1)})
     #: the inflow ramps in from still water over this many stroke cycles (0: impulsive)
     inflow_ramp_cycles: float = field(default=0.5, metadata={"check": _non_negative})
     #: run-case also runs the whale gliding (same mesh, no stroke) for the drag baseline
@@ -194,11 +193,11 @@ class Case:
     #: periodic state: cycle-to-cycle change of mean Fx (of the gliding drag) and mean power
     periodic_tolerance: float = field(default=0.02, metadata={"check": _positive})
     #: stop before cells invert: largest non-orthogonality (deg) allowed
-    max_non_orthogonality: float = field(default=80.0, metadata={"check": lambda v: 0 < v < 90})
+    max_non_orthogonality: float = field(default=80.0, metadata={"check": _within(0, 90, "()")})
     #: prism layers on the whale (0: none), the first layer's thickness (m), their ratio
-    layers: int = field(default=3, metadata={"check": lambda v: 0 <= v <= 20})
+    layers: int = field(default=3, metadata={"check": _within(0, 20)})
     first_layer_m: float = field(default=0.007, metadata={"check": _positive})
-    layer_expansion: float = field(default=1.5, metadata={"check": lambda v: 1.0 <= v <= 3.0})
+    layer_expansion: float = field(default=1.5, metadata={"check": _within(1, 3)})
     #: how the mesh follows the whale: "blended" (whaleBlendedDisplacement, faded out between
     #: motion_inner and motion_outer body lengths) or "laplacian" (displacementLaplacian)
     mesh_motion: str = field(default="blended", metadata={"choices": ("blended", "laplacian")})
@@ -291,7 +290,8 @@ def _convert(value, annotation, path: str, meta: dict):
         raise SceneError(f"{path}: expected one of {', '.join(choices)}; got {value!r}")
     check = meta.get("check")
     if check is not None and not check(value):
-        raise SceneError(f"{path}: value {value!r} is out of range (see docs/scene.md)")
+        allowed = f" {check.range}" if hasattr(check, "range") else ""   # _within's interval
+        raise SceneError(f"{path}: value {value!r} is out of range{allowed} (docs/scene.md)")
     return value
 
 

@@ -24,6 +24,7 @@ import psutil
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from adapter.jsonfiles import finite  # noqa: E402
 from adapter.motion.animator import Animator  # noqa: E402
 from adapter.motion.integrators import make_integrator  # noqa: E402
 from adapter.scene import load_scene  # noqa: E402
@@ -127,7 +128,7 @@ def main() -> int:
           f"{n_mem} animator steps ({wall:.0f} s)")
     out = ROOT / "out"
     out.mkdir(exist_ok=True)
-    (out / "bench.json").write_text(json.dumps(res, indent=2) + "\n")
+    (out / "bench.json").write_text(json.dumps(finite(res), indent=2, allow_nan=False) + "\n")
     print("wrote out/bench.json")
     return 0
 

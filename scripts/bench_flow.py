@@ -44,6 +44,7 @@ from adapter.foam.dictionaries import parsed_dict, plugin_lib  # noqa: E402
 from adapter.foam.stepserver import start_server, stop_server  # noqa: E402
 from adapter.foam.tools import foam_env  # noqa: E402
 from adapter.foamfiles import time_dirs  # noqa: E402
+from adapter.jsonfiles import finite  # noqa: E402
 
 #: the template's flux correction before it was loosened: to an absolute 1e-5
 TIGHT_PCORR = {"tolerance": 1e-5, "relTol": 0}
@@ -171,8 +172,8 @@ def main(argv=None) -> int:
         print(f"{name:<24} {r['cpu_s_per_step']:>7.3f} {r['x_static']:>9.2f} {fx:>12} {pw:>10}")
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"case": str(case), "time": time, "steps": args.steps,
-                               "runs": results}, indent=2))
+    out.write_text(json.dumps(finite({"case": str(case), "time": time, "steps": args.steps,
+                                      "runs": results}), indent=2, allow_nan=False))
     print(f"wrote {out}")
     return 0
 

@@ -28,7 +28,7 @@ OUT = ROOT / "out" / "mutation"
 
 
 def _toml_list(items) -> str:
-    return "[" + ", ".join(json.dumps(str(x)) for x in items) + "]"
+    return "[" + ", ".join(json.dumps(str(x), allow_nan=False) for x in items) + "]"
 
 
 def _workdir(module: str, tests: list[str], base: dict) -> Path:
@@ -115,7 +115,7 @@ def write_report(new: list[dict]) -> Path:
                           m["diff"].strip(), "```", ""]
     path = OUT / "report.md"
     path.write_text("\n".join(lines) + "\n")
-    summary.write_text(json.dumps(results, indent=2))
+    summary.write_text(json.dumps(results, indent=2, allow_nan=False))
     return path
 
 

@@ -32,6 +32,7 @@ from adapter.coupling.listener import PID_NAME  # noqa: E402
 from adapter.foam import case as C  # noqa: E402
 from adapter.foam import mesh as M  # noqa: E402
 from adapter.foam import run as R  # noqa: E402
+from adapter.jsonfiles import finite  # noqa: E402
 from adapter.scene import load_scene  # noqa: E402
 
 _MB = 1024.0 * 1024.0
@@ -151,7 +152,7 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     report = soak(args.case, args.steps, args.write_every, args.interval)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(report, indent=1) + "\n")
+    args.out.write_text(json.dumps(finite(report), indent=1, allow_nan=False) + "\n")
     print(f"soak: {report['steps']} coupled steps in {report['wall_s']} s "
           f"({report['s_per_step']} s per step, + {report['prepare_and_mesh_s']} s to prepare)")
     print(f"soak: server RSS {report['rss_start_mb']} MB at step {report['rss_start_step']}, "

@@ -26,6 +26,8 @@ ROOMS = {
     "adapter.resources": "base",
     "adapter.vtkfiles": "base",         # a leaf: imports only adapter.errors
     "adapter.foamfiles": "base",        # a leaf: the time-folder scan
+    "adapter.options": "base",          # command-line option types (argparse type=)
+    "adapter.jsonfiles": "base",        # a leaf: strict JSON, the one NaN/inf cleaner
     "adapter.body": "body",
     "adapter.motion": "motion",
     "adapter.coupling": "coupling",

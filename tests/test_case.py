@@ -563,9 +563,10 @@ def test_run_case_twice_with_the_same_preset_continues(tmp_path, capsys):
     end = C.read_record(case)["parameters"]["end_time"]
     assert main(args) == 0
     out = capsys.readouterr().out
-    assert f"{case} already holds a case (preset smoke, static whale): continuing it from " \
-           f"t = {end:.6g} s" in out
-    assert "nothing to run" in out
+    # finished: it says so, and does not say it continues
+    assert f"{case} already holds a finished case (preset smoke, static whale): it reached " \
+           f"its end time ({end:.6g} s), nothing to run" in out
+    assert "continuing" not in out
     assert main(["run-case", "--preset", "default", "--case", str(case)]) == 2
     err = capsys.readouterr().err
     assert "--preset default (recorded: preset smoke" in err and "another --case" in err

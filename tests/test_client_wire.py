@@ -218,12 +218,13 @@ class FakeServer:
         self.sock.close()
 
 
-def run_client(harness: Path, replies, steps, *, options=(), unix_path=None):
+def run_client(harness: Path, replies, steps, *, options=(), unix_path=None, endpoint=None):
     """Run the harness through ``steps`` against a fake server; (stdout lines, exit code,
-    the frames the server received, whether the client closed the connection)."""
+    the frames the server received, whether the client closed the connection). ``endpoint``:
+    the harness's endpoint argument instead of the server's own (``file:<endpoint file>``)."""
     server = FakeServer(replies, unix_path)
     try:
-        r = subprocess.run([str(harness), server.endpoint, *options, *steps],
+        r = subprocess.run([str(harness), endpoint or server.endpoint, *options, *steps],
                            capture_output=True, text=True, timeout=30)
     finally:
         server.close()
@@ -285,6 +286,22 @@ def test_a_unix_socket_session(harness, tmp_path_factory):
     assert rc == 0 and frames == [hello_frame(1)] and out[0].startswith("WELCOME 2 ")
 
 
+def test_a_lost_server_is_named_in_plain_words(harness, tmp_path_factory):
+    """The server, found through an endpoint file (as the boundary condition finds it), closes
+    the connection after WELCOME: the error says what happened and names the socket and the
+    file that named it."""
+    folder = tmp_path_factory.mktemp("e", numbered=True)
+    path = folder / "s.sock"
+    if len(str(path)) >= 100:
+        pytest.skip("temporary folder too deep for a UNIX socket path")
+    endpoint = folder / "case.endpoint"
+    endpoint.write_text(f"# step-server\nunix {path}\n")
+    err, _ = refused(harness, [welcome(2, *WELCOME_VALUES), (b"", "close")],
+                     [*HELLO_STEP, *request_step(T1)], unix_path=path,
+                     endpoint=f"file:{endpoint}")
+    assert err == (f"{CLOSED} (step-server at {path}, named in {endpoint})")
+
+
 def test_an_empty_token_and_no_points(harness):
     out, rc, frames, _ = run_client(harness, [welcome(0, 0.0, 1e-4)], ["hello", "1", "", ""])
     assert rc == 0, out
@@ -309,13 +326,14 @@ def test_every_error_code_becomes_an_error_with_the_message(harness, code):
         steps = [*HELLO_STEP, *request_step(T1), "bye"]
         what = "HELLO"
     err, frames = refused(harness, replies, steps)
-    assert err.startswith(f"server ERROR {code} in reply to {what}: {message} (server tcp://")
+    assert err.startswith(f"server ERROR {code} in reply to {what}: {message} "
+                          "(step-server at tcp://")
     assert len(frames) == (2 if code in AT_REQUEST else 1)
 
 
 def test_an_error_without_a_message(harness):
     assert refused(harness, [error(3, "")], HELLO_STEP)[0].startswith(
-        "server ERROR 3 in reply to HELLO:  (server ")
+        "server ERROR 3 in reply to HELLO:  (step-server at ")
 
 
 # -- replies the client refuses ----------------------------------------------------------
@@ -330,6 +348,7 @@ def test_a_non_finite_displacement_is_refused(harness, bad):
 
 
 GOOD_WELCOME = welcome(2, *WELCOME_VALUES)
+CLOSED = "the step-server closed the connection (EOF): it stopped or crashed"
 WELCOME_PAYLOAD = struct.pack("<Idd", 2, *WELCOME_VALUES)
 REFUSED = {
     # name: (replies, expected start of the message)
@@ -355,8 +374,8 @@ REFUSED = {
     "an unknown type": ([frame(8)],
                         "unexpected unknown (type 8) in reply to HELLO, expected WELCOME"),
     "a truncated payload": ([(frame(T["WELCOME"], WELCOME_PAYLOAD)[:-4], "close")],
-                            "the server closed the connection (EOF)"),
-    "no reply at all": ([(b"", "close")], "the server closed the connection (EOF)"),
+                            CLOSED),
+    "no reply at all": ([(b"", "close")], CLOSED),
     "DISPLACEMENT one point short": (
         [GOOD_WELCOME, displacement(T1, DISP[:3])],
         "malformed DISPLACEMENT: payload of 36 bytes, expected 60 for 2 points"),

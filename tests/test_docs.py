@@ -25,10 +25,6 @@ DOCS = REPO / "docs"
 #: README.md's length limit (issue 27: "at most about 120 lines")
 README_MAX_LINES = 130
 
-#: link targets that other sessions are adding (issue 27): a missing one is not an error yet;
-#: once the file exists its links are checked like any other. Remove an entry when it lands.
-PENDING = {"LICENSE", "CITATION.cff"}
-
 _LINK = re.compile(r"!?\[(?:[^\[\]]|\[[^\[\]]*\])*\]\(([^()\s]+)(?:\s+\"[^\"]*\")?\)")
 
 
@@ -101,8 +97,7 @@ def broken_links(page_list: list[Path]) -> list[str]:
                 continue
             path, anchor = resolve(page, target)
             if not path.exists():
-                if rel(path) not in PENDING:
-                    bad.append(f"{rel(page)}: {target} (no such file)")
+                bad.append(f"{rel(page)}: {target} (no such file)")
                 continue
             if not path.is_relative_to(REPO):
                 bad.append(f"{rel(page)}: {target} (outside the repository)")

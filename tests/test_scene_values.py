@@ -70,7 +70,7 @@ def _refused(tmp_path, text, message):
     ("[flow]\nspeed = 1\n", "flow.speed: unknown key; allowed here: speed_m_s, rho_kg_m3, "
                             "nu_m2_s"),
     ("preset = \"smoke\"\n[stroke]\npivot = 1.5\n",
-     "stroke.pivot: value 1.5 is out of range (see docs/scene.md)"),
+     "stroke.pivot: value 1.5 is out of range [0, 1] (docs/scene.md)"),
 ])
 def test_a_bad_value_is_refused_naming_its_path(tmp_path, text, message):
     _refused(tmp_path, text, message)
@@ -87,34 +87,35 @@ def test_good_values_are_stored_as_their_kind(tmp_path):
 
 # -- the ranges at their limits --------------------------------------------------------------------
 
-@pytest.mark.parametrize("key, ok, bad", [
-    ("geometry.length_m", [1e-9], [0.0]),
-    ("geometry.nodes", [400, 2_000_000], [399, 2_000_001]),
-    ("geometry.fluke_span", [0.1, 0.5], [0.0999, 0.5001]),
-    ("regions.head_end", [0.0], [-0.01]),
-    ("regions.tail_start", [1.0], [1.01]),
-    ("springs.mu", [0.0], [-1e-9]),
-    ("springs.nu", [0.0], [-1e-9]),
-    ("springs.k_pivot", [1e-9], [0.0]),
-    ("stroke.fluke_ramp", [0.0, 4.0], [-0.01, 4.01]),
-    ("stroke.fluke_joint", [0.0, 0.1], [-0.01, 0.1001]),
-    ("stroke.ramp_cycles", [0.0, 10.0], [-0.01, 10.01]),
-    ("stroke.head_node", [0.0], [-0.01]),
-    ("integrator.safety", [1.0, 1e-9], [0.0, 1.01]),
-    ("integrator.dt_s", [0.0], [-1e-9]),
-    ("output.cycles", [1], [0]),
-    ("output.frames_per_cycle", [4], [3]),
-    ("output.samples_per_cycle", [8], [7]),
-    ("case.max_non_orthogonality", [1e-9, 89.99], [0.0, 90.0]),
-    ("case.layers", [0, 20], [-1, 21]),
-    ("case.flipper_level", [0, 8], [-1, 9]),
-    ("case.fluke_level", [0, 8], [-1, 9]),
-    ("case.fluke_clearance", [0.0, 0.2], [-0.01]),
-    ("case.layer_expansion", [1.0, 3.0], [0.99, 3.01]),
-    ("case.writes_per_cycle", [1], [0]),
-    ("case.ranks", [1], [0]),
+@pytest.mark.parametrize("key, ok, bad, allowed", [
+    ("geometry.length_m", [1e-9], [0.0], "(0, inf)"),
+    ("geometry.nodes", [400, 2_000_000], [399, 2_000_001], "[400, 2000000]"),
+    ("geometry.fluke_span", [0.1, 0.5], [0.0999, 0.5001], "[0.1, 0.5]"),
+    ("regions.head_end", [0.0], [-0.01], "[0, 1]"),
+    ("regions.tail_start", [1.0], [1.01], "[0, 1]"),
+    ("springs.mu", [0.0], [-1e-9], "[0, inf)"),
+    ("springs.nu", [0.0], [-1e-9], "[0, inf)"),
+    ("springs.k_pivot", [1e-9], [0.0], "(0, inf)"),
+    ("stroke.fluke_ramp", [0.0, 4.0], [-0.01, 4.01], "[0, 4]"),
+    ("stroke.fluke_joint", [0.0, 0.1], [-0.01, 0.1001], "[0, 0.1]"),
+    ("stroke.ramp_cycles", [0.0, 10.0], [-0.01, 10.01], "[0, 10]"),
+    ("stroke.head_node", [0.0], [-0.01], "[0, 1]"),
+    ("integrator.safety", [1.0, 1e-9], [0.0, 1.01], "(0, 1]"),
+    ("integrator.dt_s", [0.0], [-1e-9], "[0, inf)"),
+    ("output.cycles", [1], [0], "[1, inf)"),
+    ("output.frames_per_cycle", [4], [3], "[4, inf)"),
+    ("output.samples_per_cycle", [8], [7], "[8, inf)"),
+    ("case.max_non_orthogonality", [1e-9, 89.99], [0.0, 90.0], "(0, 90)"),
+    ("case.layers", [0, 20], [-1, 21], "[0, 20]"),
+    ("case.flipper_level", [0, 8], [-1, 9], "[0, 8]"),
+    ("case.fluke_level", [0, 8], [-1, 9], "[0, 8]"),
+    ("case.fluke_clearance", [0.0, 0.2], [-0.01], "[0, inf)"),
+    ("case.layer_expansion", [1.0, 3.0], [0.99, 3.01], "[1, 3]"),
+    ("case.writes_per_cycle", [1], [0], "[1, inf)"),
+    ("case.ranks", [1], [0], "[1, inf)"),
 ])
-def test_each_range_at_its_limits(tmp_path, key, ok, bad):
+def test_each_range_at_its_limits(tmp_path, key, ok, bad, allowed):
+    """... and the error gives the range, as an interval ("(" and ")": that end excluded)."""
     section, name = key.split(".")
     for v in ok:
         s = _load(tmp_path, f"[{section}]\n{name} = {v!r}\n")
@@ -122,7 +123,7 @@ def test_each_range_at_its_limits(tmp_path, key, ok, bad):
     for v in bad:
         _refused(tmp_path, f"[{section}]\n{name} = {v!r}\n",
                  f"{key}: value {float(v) if isinstance(v, float) else v!r} is out of range "
-                 "(see docs/scene.md)")
+                 f"{allowed} (docs/scene.md)")
 
 
 @pytest.mark.parametrize("text, message", [

@@ -13,10 +13,23 @@ from adapter.body.polygons import triangulate
 from adapter.body.regions import REGIONS
 from adapter.errors import GeometryError
 
+#: what an unknown suffix is told to give instead
+FORMATS = ".stl, .obj, .ply, .vtk or .vtp (or another suffix meshio writes)"
+
+
+def writable(path) -> bool:
+    """Does :func:`write_surface` know ``path``'s format (by its suffix: meshio's, or .vtp)?"""
+    import meshio
+
+    name = Path(path).name.lower()
+    return name.endswith(".vtp") or any(name.endswith(e) for e in meshio.extension_to_filetypes)
+
 
 def write_surface(path, points, faces, point_data=None) -> None:
     """Write a surface with meshio (.vtp, which meshio does not write, with
     :func:`adapter.vtkfiles.write_vtp`)."""
+    if not writable(path):
+        raise GeometryError(f"{path}: unknown surface format; give {FORMATS}")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     suffix = path.suffix.lower()
@@ -28,7 +41,9 @@ def write_surface(path, points, faces, point_data=None) -> None:
     if suffix == ".stl":
         cells = [("triangle", triangulate(points, faces))]
     else:
-        cells = [("triangle" if f.shape[1] == 3 else "quad", f) for f in faces]
+        # int32 indices: PLY has no 64-bit integers (meshio would cast them, saying so)
+        cells = [("triangle" if f.shape[1] == 3 else "quad", np.asarray(f, dtype=np.int32))
+                 for f in faces]
     mesh = meshio.Mesh(np.asarray(points, dtype=np.float64), cells,
                        point_data=dict(point_data or {}))
     kwargs = {"binary": True} if suffix == ".stl" else {}
@@ -88,7 +103,10 @@ def read_surface(path: str | Path) -> tuple[np.ndarray, list]:
     if not path.is_file():
         raise GeometryError(f"mesh file {path} does not exist")
     try:
-        mesh = meshio.read(str(path))
+        # meshio tells an ASCII STL from a binary one by reading its header as a triangle
+        # count, which overflows numpy's uint32 for ASCII text: a warning about nothing
+        with np.errstate(over="ignore"):
+            mesh = meshio.read(str(path))
     except Exception as exc:  # meshio raises many kinds; say which file and why
         raise GeometryError(f"cannot read {path} with meshio: {exc}") from None
     points = np.asarray(mesh.points, dtype=np.float64)

@@ -7,7 +7,6 @@ statistics (``server-stats.json``, and the summary line it prints at the end).
 from __future__ import annotations
 
 import dataclasses
-import json
 import logging
 import math
 import threading
@@ -20,6 +19,7 @@ from adapter import vtkfiles
 from adapter.body.landmarks import LANDMARKS
 from adapter.coupling.store import atomic_write_text, time_name
 from adapter.errors import VTKFileError
+from adapter.jsonfiles import write_json
 
 log = logging.getLogger(__name__)
 
@@ -240,4 +240,4 @@ class ServerStats:
 
     def write(self, folder: Path, stats: dict) -> None:
         if folder.is_dir():
-            (folder / "server-stats.json").write_text(json.dumps(stats, indent=2) + "\n")
+            write_json(folder / "server-stats.json", stats)

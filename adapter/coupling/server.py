@@ -49,6 +49,7 @@ from adapter.coupling.session import Links, Session
 from adapter.coupling.store import StateStore, fingerprint, time_name
 from adapter.coupling.timeline import MAX_JUMP_CYCLES, Timeline
 from adapter.errors import ServerStartError
+from adapter.options import in_file, in_folder, port, positive
 from adapter.scene import PRESETS
 
 __all__ = ["ENDPOINT_NAME", "FORCE_COLUMNS", "MAP_CACHE_NAME", "MAX_JUMP_CYCLES", "OUTPUT_DIR",
@@ -294,21 +295,22 @@ def register(subparsers) -> None:
                     "boundary condition of an OpenFOAM case (docs/step-server.md). Exits when "
                     "the run ends.",
     )
-    p.add_argument("--case", required=True, type=Path, help="the OpenFOAM case folder")
-    p.add_argument("--scene", type=Path, help="scene TOML file (default: built-in scene)")
+    p.add_argument("--case", required=True, type=in_folder, help="the OpenFOAM case folder")
+    p.add_argument("--scene", type=in_file, help="scene TOML file (default: built-in scene)")
     p.add_argument("--preset", choices=PRESETS, help="built-in preset")
-    p.add_argument("--tcp", type=int, metavar="PORT", help="also listen on TCP at this port")
+    p.add_argument("--tcp", "--port", dest="tcp", type=port, metavar="PORT",
+                   help="also listen on TCP at this port (--port: the same, as in run-case)")
     p.add_argument("--host", default="127.0.0.1", help="TCP host (default 127.0.0.1)")
     p.add_argument("--token", default=None,
                    help="shared secret clients must send (visible in ps: prefer "
                         "$WHALE_ADAPTER_TOKEN or --token-file)")
-    p.add_argument("--token-file", type=Path, metavar="FILE",
+    p.add_argument("--token-file", type=in_file, metavar="FILE",
                    help="read the token from FILE (mode 0600, owner only)")
     p.add_argument("--keep-serving", action="store_true",
                    help="serve run after run (one link at a time) until killed")
-    p.add_argument("--map-tolerance", type=float, default=DEFAULT_TOLERANCE, metavar="FRACTION",
+    p.add_argument("--map-tolerance", type=positive, default=DEFAULT_TOLERANCE, metavar="FRACTION",
                    help="largest patch-to-whale distance, fraction of L (default %(default)s)")
-    p.add_argument("--wait", type=float, default=600.0, metavar="S",
+    p.add_argument("--wait", type=positive, default=600.0, metavar="S",
                    help="seconds to wait for the first client (default %(default)s)")
     p.set_defaults(func=_cmd_serve)
 

@@ -50,7 +50,7 @@ def fingerprint(scene, surface, dt: float) -> str:
     fields = dataclasses.asdict(scene)
     fields.pop("base_dir", None)
     fields.pop("name", None)
-    h = hashlib.sha256(json.dumps(fields, sort_keys=True, default=str).encode())
+    h = hashlib.sha256(json.dumps(fields, sort_keys=True, default=str, allow_nan=False).encode())
     h.update(np.ascontiguousarray(surface.points, dtype=np.float64).tobytes())
     h.update(np.ascontiguousarray(surface.triangles, dtype=np.int64).tobytes())
     h.update(repr(float(dt)).encode())

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from adapter import resources
+from adapter import jsonfiles, resources
 from adapter.coupling.protocol import SOCKET_NAME
 from adapter.errors import CaseError, SceneError
 from adapter.foam.dictionaries import PLUGIN_LIB, choose_decomposition, write_dictionaries
@@ -149,8 +149,9 @@ def check_length(scene, surface) -> None:
 
 
 def write_json(path: Path, data: dict) -> None:
-    """``data`` as indented JSON into ``path`` (the case record, the summary)."""
-    path.write_text(json.dumps(data, indent=2) + "\n")
+    """``data`` as indented strict JSON into ``path`` (the case record, the summary): a NaN
+    or infinite figure is written as null (:func:`adapter.jsonfiles.finite`)."""
+    jsonfiles.write_json(path, data)
 
 
 def parallel_settings(record: dict, **given) -> dict:

@@ -5,10 +5,12 @@ that asks for it (:mod:`adapter.foam.swimrun`)."""
 from __future__ import annotations
 
 import argparse
+import json
+import sys
 from pathlib import Path
 
 from adapter.coupling.server import resolve_token
-from adapter.errors import CaseError
+from adapter.errors import CaseError, UsageError
 from adapter.foam.case import (
     CASE_RECORD,
     parallel_settings,
@@ -17,13 +19,17 @@ from adapter.foam.case import (
     write_json,
 )
 from adapter.foam.dictionaries import DECOMPOSITIONS, choose_decomposition, parsed_dict
-from adapter.foam.folders import resume_time
+from adapter.foam.folders import asked_start, resume_time
 from adapter.foam.mesh import mesh_case
 from adapter.foam.report import REPORT, write_report
 from adapter.foam.run import run_case
 from adapter.foam.summary import SUMMARY, format_summary
 from adapter.foam.swimrun import COST_ROWS, run_swim_and_glide
+from adapter.options import count, in_file, out_folder, port
 from adapter.scene import load_scene
+
+#: run-case's exit code when the swimming run ended without reaching its periodic state
+NOT_PERIODIC = 3
 
 
 def register(subparsers) -> None:
@@ -32,12 +38,16 @@ def register(subparsers) -> None:
         help="prepare, mesh and run the OpenFOAM whale-in-channel case",
         description="Prepare the case from the template (foam_case/) and the scene unless --case "
         "already holds one, mesh it when it has no mesh, then run pimpleFoam with the "
-        "step-server and write adapter-summary.json.",
+        "step-server and write adapter-summary.json. Exit code 2: a bad input; "
+        f"{NOT_PERIODIC}: the swimming run ended without reaching its periodic state (a "
+        "warning says by how much).",
     )
-    p.add_argument("--scene", help="scene TOML file (default: built-in default)")
+    p.add_argument("--scene", type=in_file, help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
-    p.add_argument("--case", default=None, help="case folder (default: runs/<preset>)")
-    p.add_argument("--np", type=int, default=None, dest="ranks",
+    p.add_argument("--case", "--out", dest="case", default=None, type=out_folder,
+                   help="case folder (default: runs/<preset>); --out is the same, the output "
+                        "place's spelling in the other commands")
+    p.add_argument("--np", type=count, default=None, dest="ranks",
                    help="MPI ranks (default: the scene's case.ranks)")
     p.add_argument("--mesh-only", action="store_true", help="prepare and mesh, do not run")
     p.add_argument("--static-whale", action="store_true",
@@ -46,9 +56,9 @@ def register(subparsers) -> None:
                    help="the step-server listens on TCP at this host name or address (e.g. "
                         "0.0.0.0 for every interface; published in the case's endpoint file) "
                         "instead of the case's UNIX socket; a non-loopback host needs a token")
-    p.add_argument("--port", type=int, default=None,
+    p.add_argument("--port", type=port, default=None,
                    help="TCP port of the step-server (default 0: any free one)")
-    p.add_argument("--token-file", default=None, metavar="FILE",
+    p.add_argument("--token-file", default=None, metavar="FILE", type=in_file,
                    help="the shared secret, in a file only its owner may read (chmod 600); "
                         "default $WHALE_ADAPTER_TOKEN. Never written into the case")
     p.add_argument("--launcher", default=None, metavar="CMD",
@@ -66,13 +76,16 @@ def register(subparsers) -> None:
     p.add_argument("--reconstruct", action="store_true", default=None,
                    help="reconstructPar after a parallel run (default: the scene's "
                         "case.reconstruct; the written times stay in processor*/)")
+    p.add_argument("--quiet", "-q", action="store_true",
+                   help="no progress and no report on stdout, only warnings and errors on stderr")
     p.set_defaults(func=_cmd_run_case)
 
 
 def _cmd_run_case(args: argparse.Namespace) -> int:
-    if args.ranks is not None and args.ranks < 1:
-        raise CaseError(f"--np: expected at least 1 rank, got {args.ranks}")
     if args.decomposition not in (None, *DECOMPOSITIONS):
+        if not Path(args.decomposition).is_file():
+            raise UsageError(f"--decomposition {args.decomposition}: give hierarchical, case "
+                             "or an existing decomposeParDict file")
         args.decomposition = str(Path(args.decomposition).resolve())   # a file, from here
     case = Path(args.case or Path("runs") / (args.preset or "default"))
     exists = (case / "system" / "controlDict").exists()
@@ -80,12 +93,17 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
         # refuses a folder not made by run-case before anything (blockMesh) touches it
         record = read_record(case)
         _check_same_case(case, record, args)
-        t0, control = resume_time(case), parsed_dict(case / "system" / "controlDict")
-        print(f"{case} already holds a case ({_recorded(record)}): "
-              f"continuing it from t = {t0:.6g} s")
-        if t0 >= float(control["endTime"]) - 0.5 * float(control["deltaT"]):
-            print(f"it has reached its end time ({float(control['endTime']):.6g} s): nothing to "
-                  "run (to run it longer, raise endTime in its system/controlDict)")
+        asked = asked_start(case)
+        t0 = resume_time(case) if asked is None else asked[0]
+        done = _done(case, t0, pair_too=asked is None)
+        if done:
+            print(f"{case} already holds a finished case ({_recorded(record)}): {done}")
+        elif asked is None:
+            print(f"{case} already holds a case ({_recorded(record)}): continuing it from "
+                  f"t = {t0:.6g} s")
+        else:
+            # run_case says what it recomputes from there, or refuses a time not written
+            print(f"{case} already holds a case ({_recorded(record)})")
         if args.decomposition is not None:
             _record_decomposition(case, record, args.decomposition)
     else:
@@ -110,19 +128,58 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
     if record.get("gliding", False) and not record.get("static_whale"):
         summary = run_swim_and_glide(case, record, float(record["periodic_tolerance"]),
                                      ranks=args.ranks, launcher=args.launcher,
-                                     reconstruct=args.reconstruct)
+                                     reconstruct=args.reconstruct, progress=not args.quiet)
         print(f"\n{case}: what swimming costs the whale")
         print(format_summary(summary, COST_ROWS))
         print(f"(all figures: {case / SUMMARY}; picture: {case / 'forces.png'})")
         print(f"(report: {case / REPORT})")
-        return 0
+        return _warn_unless_periodic(case, summary)
     token = resolve_token(args.token_file)
     summary = run_case(case, ranks=args.ranks, host=args.host, port=args.port, token=token,
-                       launcher=args.launcher, reconstruct=args.reconstruct)
+                       launcher=args.launcher, reconstruct=args.reconstruct,
+                       progress=not args.quiet)
     print(format_summary(summary))
     print(f"(all figures: {case / SUMMARY})")
     print(f"(report: {write_report(case, summary)})")
     return 0
+
+
+def _done(case: Path, t0: float, pair_too: bool = True) -> str | None:
+    """Why a prepared case starting from ``t0`` has nothing left to run (it is at its end
+    time, or, ``pair_too``, the pair's swimming run reached its periodic state), or None."""
+    control = parsed_dict(case / "system" / "controlDict")
+    end = float(control["endTime"])
+    if t0 >= end - 0.5 * float(control["deltaT"]):
+        return (f"it reached its end time ({end:.6g} s), nothing to run (to run it longer, "
+                "raise endTime in its system/controlDict)")
+    summary = json.loads((case / SUMMARY).read_text()) if (case / SUMMARY).is_file() else {}
+    if pair_too and summary.get("swimming_cost", {}).get("periodic_change", {}).get("reached"):
+        return "its swimming run reached its periodic state, nothing to run"
+    return None
+
+
+def _warn_unless_periodic(case: Path, summary: dict) -> int:
+    """0, or :data:`NOT_PERIODIC` with a warning on stderr when the swimming run ended without
+    reaching its periodic state (its figures are then those of a start-up, not of the gait);
+    a warning too when the gliding run ended before its drag was steady."""
+    cost = summary["swimming_cost"]
+    if not cost.get("gliding_run", {}).get("stopped_because"):
+        print(f"whale-adapter run-case: warning: the gliding run {case / 'gliding'} reached its "
+              "end time before its drag was steady: the gliding drag is that of its last "
+              "stroke period", file=sys.stderr)
+    change = cost["periodic_change"]
+    if change["reached"]:
+        return 0
+    how = ("fewer than two stroke cycles after the start-up" if change["power"] is None else
+           f"the last two cycles' mean Fx changed {change['fx_of_gliding_drag']:.1%} of the "
+           f"gliding drag and mean power {change['power']:.1%}")
+    end = summary.get("end_time_s")
+    at = f" at t = {end:.6g} s" if end is not None else ""
+    print(f"whale-adapter run-case: warning: {case} ended{at} without reaching its periodic "
+          f"state ({how}; tolerance {change['tolerance']:.1%}): its figures are not those of a "
+          f"periodic state. Raise endTime in {case / 'system' / 'controlDict'} and run the "
+          "same command again to continue it", file=sys.stderr)
+    return NOT_PERIODIC
 
 
 def _record_decomposition(case: Path, record: dict, value: str) -> None:

@@ -8,7 +8,8 @@ import shutil
 import time
 from pathlib import Path
 
-from adapter.errors import AdapterError, SolverRunError
+from adapter.errors import AdapterError, MeshError
+from adapter.foam.bodymesh import body_check, refuse_if_bad
 from adapter.foam.case import CASE_RECORD, parallel_settings, read_record, write_json
 from adapter.foam.dictionaries import set_decomposition
 from adapter.foam.folders import processor_dirs, restore_zero
@@ -27,9 +28,11 @@ def mesh_case(case_dir, *, ranks: int | None = None, parallel: bool | None = Non
     ``launcher``, None: the recorded one) and reconstructs the mesh into ``constant/polyMesh``.
 
     Returns the mesh's facts parsed from checkMesh: cells, whale_faces, whale_points,
-    max_non_orthogonality, max_skewness, mesh_ok, meshed_on_ranks; also recorded in
-    adapter-case.json. Raises :class:`~adapter.errors.SolverRunError` when a utility fails or
-    the whale patch is missing.
+    max_non_orthogonality, max_skewness, mesh_ok, meshed_on_ranks, and the whale patch against
+    its surface (``body_check``, :func:`~adapter.foam.bodymesh.body_check`); also recorded in
+    adapter-case.json. Raises :class:`~adapter.errors.SolverRunError` when a utility fails,
+    :class:`~adapter.errors.MeshError` when the whale patch is missing or (after recording the
+    mesh) when the mesh misses or mangles the body.
     """
     check_foam()
     case = Path(case_dir)
@@ -50,15 +53,32 @@ def mesh_case(case_dir, *, ranks: int | None = None, parallel: bool | None = Non
     info["meshed_on_ranks"] = on_ranks
     info.update(layer_record(case))
     if not info.get("whale_faces"):
-        raise SolverRunError(f"snappyHexMesh made no whale patch; see {case / 'log.snappyHexMesh'}"
-                             f" ({no_patch_hint(read_record(case))})")
+        raise MeshError(f"the mesh misses the body: snappyHexMesh made no whale patch; see "
+                        f"{case / 'log.snappyHexMesh'} ({no_patch_hint(read_record(case))})")
+    info["body_check"] = body_check(case, record, info.get("layers"))
     restore_zero(case)
     record_path = case / CASE_RECORD
     if record_path.is_file():
         record = json.loads(record_path.read_text())
         record["mesh"] = info
         write_json(record_path, record)
+    # recorded first, so that a run of this mesh is refused for the same reason
+    refuse_if_bad(info["body_check"])
     return info
+
+
+def checked_mesh(case: Path, record: dict) -> dict:
+    """The recorded body check of the case's mesh (:mod:`adapter.foam.bodymesh`), made and
+    recorded now for a mesh meshed before the check existed; raises
+    :class:`~adapter.errors.MeshError` when the mesh misses or mangles the body."""
+    mesh = record.get("mesh") or {}
+    check = mesh.get("body_check")
+    if check is None:
+        check = body_check(case, record, mesh.get("layers"))
+        record = {**record, "mesh": {**mesh, "body_check": check}}
+        write_json(case / CASE_RECORD, record)
+    refuse_if_bad(check)
+    return check
 
 
 def snappy_on_ranks(case: Path, ranks: int, launcher: str = "",

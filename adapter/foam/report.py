@@ -177,7 +177,8 @@ def _scene_text(scene) -> str:
         value = getattr(scene, f.name)
         if dataclasses.is_dataclass(value):
             lines.append(f"\n[{f.name}]")
-            lines += [f"{k} = {json.dumps(v)}" for k, v in dataclasses.asdict(value).items()]
+            lines += [f"{k} = {json.dumps(v, allow_nan=False)}"   # scene values are finite
+                      for k, v in dataclasses.asdict(value).items()]
     return "\n".join(lines)
 
 

@@ -27,15 +27,17 @@ from adapter.errors import SolverRunError
 from adapter.foam.case import parallel_settings, read_record, write_json
 from adapter.foam.dictionaries import parsed_dict, plugin_lib, set_decomposition
 from adapter.foam.folders import (
+    asked_start,
     processor_dirs,
     processor_latest,
+    recompute_from,
     restore_zero,
     resume_time,
     serial_latest,
     trim_processor_times,
 )
 from adapter.foam.logs import LogWatch, Progress, fatal_error, motion_check_stop
-from adapter.foam.mesh import mesh_case
+from adapter.foam.mesh import checked_mesh, mesh_case
 from adapter.foam.parallel import parallel_command
 from adapter.foam.stepserver import start_server, stop_server
 from adapter.foam.summary import SUMMARY, summarise
@@ -86,7 +88,10 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     recorded ``case.launcher``, "" there: mpirun); reconstructPar only when ``reconstruct``
     (None: the recorded ``case.reconstruct``), else the written times stay in the processor
     folders (a rerun on as many ranks continues from them). A case that has written times
-    continues from the latest (controlDict ``startFrom latestTime``).
+    continues from the latest (controlDict ``startFrom latestTime``), unless the user set
+    ``startFrom startTime`` (or ``firstTime``) there: then the written times after that one
+    are removed and recomputed, and said so (:func:`~adapter.foam.folders.recompute_from`;
+    a start time that is not a written time is refused).
 
     ``stop_when(case) -> str | None`` is asked every :data:`STOP_WHEN_STEPS` solver steps and
     once at the end; a reason ends the run (written) as the mesh watch does, and is recorded
@@ -109,7 +114,12 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     if not (case / "constant" / "polyMesh" / "owner").exists():
         mesh_case(case, ranks=ranks, launcher=settings["launcher"])
         record = read_record(case)
+    # a mesh that misses or mangles the body is refused before any solver runs
+    checked_mesh(case, record)
     restore_zero(case)
+    asked = asked_start(case)
+    if asked is not None:
+        print(recompute_from(case, *asked))
     if ranks > 1:
         set_decomposition(case, ranks, settings["decomposition"])
     static = bool(record.get("static_whale"))

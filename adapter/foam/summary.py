@@ -13,6 +13,7 @@ import numpy as np
 
 from adapter.foam.logs import LogWatch
 from adapter.foamfiles import time_dirs
+from adapter.jsonfiles import finite  # the one cleaner (also reached from here)
 
 #: the run's summary, in the case folder
 SUMMARY = "adapter-summary.json"
@@ -90,19 +91,6 @@ def summarise(case: Path, watch: LogWatch, record: dict, ranks: int, flow_wall: 
         "wall_s": round(wall, 2),
     }
     return finite(summary)
-
-
-def finite(obj):
-    """``obj`` with every NaN or infinite float, nested ones included, as None: strict JSON has
-    no NaN, and a figure that was never measured (the motion of a static mesh) is absent, not a
-    number. (The one such cleaner: the pair's figures and study.json use it too.)"""
-    if isinstance(obj, dict):
-        return {k: finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [finite(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
 
 
 #: the rows of :func:`format_summary`: (label, key of the summary (a/b for nested), format);

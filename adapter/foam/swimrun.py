@@ -27,6 +27,7 @@ from adapter.errors import CaseError
 from adapter.foam import loads as ld
 from adapter.foam.case import read_record, write_json
 from adapter.foam.dictionaries import parsed_dict
+from adapter.foam.folders import asked_start
 from adapter.foam.parallel import reconstruct_new_times
 from adapter.foam.report import write_report
 from adapter.foam.run import run_case
@@ -106,9 +107,11 @@ def run_swim_and_glide(case: Path, scene_record: dict, tolerance: float, ranks=N
 
 def _run_unless_done(case: Path, criterion, options: dict) -> dict:
     """Run the case until ``criterion`` holds, unless its written loads already meet it (a
-    rerun of a finished pair only recomputes the figures)."""
+    rerun of a finished pair only recomputes the figures) and its controlDict asks for no
+    other start (a user's ``startFrom startTime`` is a run from there)."""
     summary_path = case / SUMMARY
-    reached = criterion(case) if summary_path.is_file() else None
+    reached = (criterion(case) if summary_path.is_file() and asked_start(case) is None
+               else None)
     if reached:
         print(f"{case}: {reached} (already reached: not run again)")
         return json.loads(summary_path.read_text())
@@ -177,7 +180,7 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
         "cycle_means": {"start_s": st.starts.tolist(), "fx_N": st.mean_fx.tolist(),
                         "power_W": st.mean_power.tolist()},
         "periodic_change": {"fx_of_gliding_drag": dfx, "power": dp, "tolerance": tolerance,
-                            "reached": bool(dfx < tolerance and dp < tolerance)},
+                            "reached": ld.is_periodic(st, drag, tolerance)},
         "spikes": {**spikes,
                    "drop_1pct_fx_of_gliding_drag": spikes["drop_1pct_fx_N"] / abs(drag),
                    "drop_1pct_fx_of_mean_fx": spikes["drop_1pct_fx_N"] / abs(st.mean_fx[-1]),

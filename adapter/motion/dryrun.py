@@ -15,7 +15,6 @@ Everything is computed in one forward march of the animator: no step is stored.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
@@ -23,8 +22,9 @@ import numpy as np
 
 from adapter import vtkfiles
 from adapter.body.springs import momentum_rate
-from adapter.errors import UsageError
+from adapter.jsonfiles import write_json
 from adapter.motion.animator import Animator
+from adapter.options import count, in_file, out_folder
 
 KEYPOINTS = ("rostrum", "flipper", "tail_base", "fluke_tip")
 #: bins along the body for the amplitude envelope (amplitude_min_at)
@@ -137,7 +137,7 @@ def run(scene, out: Path, cycles: int | None = None, progress: bool = True,
         header = "t," + ",".join(KEYPOINTS)
         np.savetxt(out / "keypoints.csv", kp, delimiter=",", header=header, comments="",
                    fmt="%.9g")
-        (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        write_json(out / "summary.json", summary)
         from adapter.reports.render import plot_keypoints, render_frames
 
         plot_keypoints(kp, KEYPOINTS, period, out / "keypoints.png")
@@ -252,11 +252,13 @@ def register(subparsers) -> None:
                               "OpenFOAM needed) and write whale.pvd (a .vtp surface per frame), "
                               "keypoints.csv, summary.json, keypoints.png and frames.png into "
                               "--out (docs/dry-run.md).")
-    p.add_argument("--scene", help="scene TOML file (default: built-in default)")
+    p.add_argument("--scene", type=in_file, help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
-    p.add_argument("--cycles", type=int, help="stroke cycles (default: scene output.cycles)")
-    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--cycles", type=count, help="stroke cycles (default: scene output.cycles)")
+    p.add_argument("--out", required=True, type=out_folder, help="output folder")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", "-q", action="store_true",
+                   help="no progress and no report on stdout, only warnings and errors on stderr")
     p.set_defaults(func=_cmd_dry_run)
 
 
@@ -264,9 +266,8 @@ def _cmd_dry_run(args: argparse.Namespace) -> int:
     from adapter.scene import load_scene
 
     scene = load_scene(args.scene, preset=args.preset)
-    if args.cycles is not None and args.cycles < 1:
-        raise UsageError("--cycles must be at least 1")
-    summary = run(scene, Path(args.out), cycles=args.cycles, progress=not args.no_progress)
+    summary = run(scene, Path(args.out), cycles=args.cycles,
+                  progress=not (args.no_progress or args.quiet))
     ptp, ph = summary["peak_to_peak_m"], summary["phase_deg"]
     print(f"dry-run {summary['scene']}: {summary['nodes']} nodes, {summary['edges']} edges, "
           f"{summary['steps']} steps of {summary['dt_s']:.3g} s in {summary['wall_s']:.1f} s")

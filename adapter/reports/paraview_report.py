@@ -33,6 +33,8 @@ from pathlib import Path
 
 from adapter.errors import AdapterError, ParaViewError
 from adapter.foamfiles import time_dirs
+from adapter.jsonfiles import write_json
+from adapter.options import in_folder, non_negative, number, out_folder
 from adapter.vtkfiles import read_pvd
 
 #: the pvbatch script, run by ParaView's own Python
@@ -277,7 +279,7 @@ def render(path, out=None, times=None, *, size=(1600, 900), animation: bool = Tr
                             f"{shown}\nwhole output: {log_path}")
     report = json.loads(report_file.read_text())
     report["wall_s"] = wall
-    report_file.write_text(json.dumps(report, indent=2) + "\n")
+    write_json(report_file, report)
     print(f"paraview: {len(report['images'])} pictures, "
           f"{report.get('animation', {}).get('frames', 0)} animation frames and "
           f"{report['state']} in {out} ({wall:.1f} s)", file=stream, flush=True)
@@ -297,12 +299,13 @@ def register(subparsers) -> None:
         "and angled PNGs at chosen times, an animation, and whale.pvsm for the ParaView GUI. "
         "Needs ParaView and Xvfb (make paraview-deps).",
     )
-    p.add_argument("dir", metavar="DIR", help="coupled case folder or dry-run output folder")
-    p.add_argument("--times", type=float, nargs="+", metavar="T",
+    p.add_argument("dir", metavar="DIR", type=in_folder,
+                   help="coupled case folder or dry-run output folder")
+    p.add_argument("--times", type=non_negative, nargs="+", metavar="T",
                    help="times (s) to draw, each moved to the nearest written time (default: "
                    "0, T/4, T/2, 3T/4 of the last stroke cycle, or every time when fewer)")
-    p.add_argument("--out", help="output folder (default: DIR/paraview)")
-    p.add_argument("--size", type=int, nargs=2, default=(1600, 900), metavar=("W", "H"),
+    p.add_argument("--out", type=out_folder, help="output folder (default: DIR/paraview)")
+    p.add_argument("--size", type=number(int, 64), nargs=2, default=(1600, 900), metavar=("W", "H"),
                    help="picture size in pixels (default 1600 900)")
     p.add_argument("--no-animation", action="store_true",
                    help="only the pictures at --times and the state file")

@@ -16,10 +16,11 @@ the amplitude by about 14 % and divides the stable step by 16 (docs/stroke.md).
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from adapter.errors import AdapterError
+from adapter.jsonfiles import write_json
+from adapter.options import in_file, out_file
 
 
 def fluke_amplitude(scene, cycles: int = 2) -> dict:
@@ -83,9 +84,10 @@ def register(subparsers) -> None:
         "peak-to-peak amplitude over a stroke cycle, after the start-up cycle, matches "
         "calibration.fluke_amplitude * L; prints the value to put in the scene file "
         "(docs/stroke.md).")
-    p.add_argument("--scene", help="scene TOML file (default: built-in default)")
+    p.add_argument("--scene", type=in_file, help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
-    p.add_argument("--report", help="write the calibration report (JSON) here")
+    p.add_argument("--report", "--out", dest="report", type=out_file,
+                   help="write the calibration report (JSON) here (--out: the same)")
     p.set_defaults(func=_cmd_calibrate)
 
 
@@ -102,5 +104,5 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     print("put this in the scene file:\n\n[stroke]\n"
           f"velocity_scale = {report['velocity_scale']:.5f}\n")
     if args.report:
-        Path(args.report).write_text(json.dumps(report, indent=2) + "\n")
+        write_json(args.report, report)
     return 0

@@ -30,10 +30,12 @@ import math
 import numpy as np
 
 from adapter.errors import UsageError
+from adapter.jsonfiles import dumps
 from adapter.motion.animator import Animator
 from adapter.motion.dryrun import KEYPOINTS, keypoint_nodes
 from adapter.motion.integrators import METHODS
 from adapter.motion.stability import stable_dt
+from adapter.options import in_file, in_folder, number, positive
 
 CANDIDATE_NODES = (600, 1200, 2400, 5000, 11272)
 #: relative cost of one step, in force evaluations (the methods' own ``step_cost``; backward
@@ -132,20 +134,24 @@ def register(subparsers) -> None:
         "surface error under a tolerance (for a coupled run a fraction of the flow cell size "
         "at the whale, for a dry-run a stated tolerance), within the stable step and the "
         "consumer's step; prints the choice and why (docs/numerics.md).")
-    p.add_argument("--scene", help="scene TOML file (default: built-in default)")
+    p.add_argument("--scene", type=in_file, help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset")
-    p.add_argument("--cell-size", type=float, help="flow cell size at the whale (m): the "
+    p.add_argument("--cell-size", type=positive, help="flow cell size at the whale (m): the "
                    "tolerance is 0.1 of it")
-    p.add_argument("--flow-dt", type=float, help="flow time step (s): the largest step")
-    p.add_argument("--tolerance", type=float, help="surface tolerance (m), for a dry-run; with "
+    p.add_argument("--flow-dt", type=positive, help="flow time step (s): the largest step")
+    p.add_argument("--tolerance", type=positive, help="surface tolerance (m), for a dry-run; with "
                    "--flow-study: the figures' tolerance, a fraction (0.05 = 5 %%)")
-    p.add_argument("--flow-study", metavar="DIR", help="a finished `whale-adapter study` "
-                   "folder: offer the coarsest flow mesh whose figures lie within --tolerance "
-                   "of the extrapolated values (docs/case.md, 'The flow study')")
-    p.add_argument("--fps", type=float, help="dry-run output frames per second")
-    p.add_argument("--nodes", type=int)
-    p.add_argument("--method", choices=sorted(METHODS))
-    p.add_argument("--dt", type=float)
+    p.add_argument("--flow-study", metavar="DIR", type=in_folder,
+                   help="a finished `whale-adapter study` folder: offer the coarsest flow mesh "
+                   "whose figures lie within --tolerance of the extrapolated values "
+                   "(docs/case.md, 'The flow study')")
+    p.add_argument("--fps", type=positive, help="dry-run output frames per second")
+    p.add_argument("--nodes", type=number(int, 400, 2_000_000),
+                   help="the whale's node count (default: the coarsest that meets the tolerance)")
+    p.add_argument("--method", choices=sorted(METHODS), help="the integrator (default: the "
+                   "cheapest that meets the tolerance)")
+    p.add_argument("--dt", type=positive, help="the integrator's step (s) (default: the largest "
+                   "that meets the tolerance)")
     p.set_defaults(func=_cmd_choose)
 
 
@@ -163,7 +169,7 @@ def _cmd_choose(args: argparse.Namespace) -> int:
         raise UsageError("give --cell-size (coupled) or --tolerance")
     report = choose(scene, tol, max_dt, nodes=args.nodes, method=args.method, dt=args.dt,
                     log=print)
-    print(json.dumps(report, indent=2))
+    print(dumps(report))
     return 0
 
 
@@ -198,5 +204,5 @@ def _choose_flow_mesh(args: argparse.Namespace) -> int:
               f"{report['cells']:,} cells, {report['wall_s_per_cycle']:.0f} s per stroke "
               f"cycle): every figure within {report['worst_difference']:.2%} of its "
               f"extrapolated value or band (tolerance {args.tolerance:.1%})")
-    print(json.dumps(report, indent=2))
+    print(dumps(report))
     return 0

@@ -28,7 +28,6 @@ dt then brackets the threshold to about 1 %.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
@@ -36,9 +35,11 @@ import numpy as np
 
 from adapter.body.springs import stiffness_matrix
 from adapter.errors import UnstableError
+from adapter.jsonfiles import write_json
 from adapter.motion.animator import Animator
 from adapter.motion.integrators import METHODS, make_integrator
 from adapter.motion.stability import EXPLICIT, paper_criterion_dt, predict
+from adapter.options import in_file, out_folder
 from adapter.studies.numerics_report import plot_stability, plot_xy, write_csv
 
 #: theory's order per method (the methods' own ``order``)
@@ -337,9 +338,9 @@ def run(scene, out: Path, quick: bool = False, log=print) -> dict:
     for m in METHODS:
         r = next(x for x in at_mu if x["method"] == m)
         methods[m] = {
-            "predicted_dt": _json_num(r["predicted_dt"]),
-            "measured_dt": _json_num(r["measured_dt"]),
-            "paper_criterion_dt": _json_num(r["paper_criterion_dt"]),
+            "predicted_dt": float(r["predicted_dt"]),
+            "measured_dt": float(r["measured_dt"]),
+            "paper_criterion_dt": float(r["paper_criterion_dt"]),
             "observed_order": orders[m],
             "theory_order": THEORY_ORDER[m],
             "whale_order_with_gate": wp_orders[m],
@@ -359,13 +360,8 @@ def run(scene, out: Path, quick: bool = False, log=print) -> dict:
                "paper_criterion": paper,
                "resolution": res, "quick": quick,
                "wall_s": time.perf_counter() - t_start}
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_json(out / "summary.json", summary)
     return summary
-
-
-def _json_num(x):
-    """Floats for JSON: infinity (backward Euler) as null."""
-    return None if not np.isfinite(x) else float(x)
 
 
 def register(subparsers) -> None:
@@ -375,9 +371,9 @@ def register(subparsers) -> None:
         "integrator, convergence orders, work against precision and error against "
         "resolution, as charts, CSV and JSON in --out (docs/numerics.md; about 8 minutes, "
         "--quick for a short version).")
-    p.add_argument("--scene", help="scene TOML file (default: built-in default)")
+    p.add_argument("--scene", type=in_file, help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
-    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--out", required=True, type=out_folder, help="output folder")
     p.add_argument("--quick", action="store_true", help="fewer points, the smoke whale")
     p.set_defaults(func=_cmd_numerics)
 

@@ -46,6 +46,7 @@ from adapter.foam.case import CASE_RECORD, prepare_case, read_record, write_json
 from adapter.foam.mesh import mesh_case
 from adapter.foam.parameters import case_parameters
 from adapter.foam.summary import finite
+from adapter.options import count, in_file, number, out_folder, positive
 from adapter.studies.study_analysis import analyse, case_done
 from adapter.studies.study_report import format_study, plot_accuracy_vs_cost, write_study_report
 
@@ -290,10 +291,10 @@ def register(subparsers) -> None:
         "with the time step halved, and at several flow speeds (the self-propelled speed, "
         "mean Fx = 0). Writes <out>/study.json and <out>/accuracy-vs-cost.png; run it again "
         "to continue a stopped study (docs/case.md, 'The flow study').")
-    p.add_argument("--scene", help="scene TOML file (default: built-in default)")
+    p.add_argument("--scene", type=in_file, help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
-    p.add_argument("--out", help="study folder (default: runs/study-<preset>)")
-    p.add_argument("--ratio", type=float, default=DEFAULT_RATIO,
+    p.add_argument("--out", type=out_folder, help="study folder (default: runs/study-<preset>)")
+    p.add_argument("--ratio", type=number(float, 1.3), default=DEFAULT_RATIO,
                    help=f"refinement ratio between the meshes, >= 1.3 (default {DEFAULT_RATIO})")
     p.add_argument("--finest", choices=FINEST, default="scene",
                    help="which mesh is the finest: the scene's own (default; meshes 2 and 3 "
@@ -303,7 +304,9 @@ def register(subparsers) -> None:
                    "%(default)s)")
     p.add_argument("--parts", default=",".join(PARTS),
                    help="which parts to run: meshes, dt, speeds (default all)")
-    p.add_argument("--np", type=int, default=None, dest="ranks", help="MPI ranks per case")
+    p.add_argument("--np", type=count, default=None, dest="ranks", help="MPI ranks per case")
+    p.add_argument("--quiet", "-q", action="store_true",
+                   help="no progress and no report on stdout, only warnings and errors on stderr")
     p.set_defaults(func=_cmd_study)
 
 
@@ -316,15 +319,15 @@ def _cmd_study(args: argparse.Namespace) -> int:
     if bad:
         raise UsageError(f"--parts: unknown {', '.join(bad)}; choose from {', '.join(PARTS)}")
     try:
-        speeds = [float(s) for s in args.speeds.split(",") if s.strip()]
-    except ValueError:
-        raise UsageError(f"--speeds: expected numbers, got {args.speeds!r}") from None
+        speeds = [positive(s) for s in args.speeds.split(",") if s.strip()]
+    except argparse.ArgumentTypeError as exc:
+        raise UsageError(f"--speeds: {exc}") from None
     if "speeds" in parts and len(speeds) < 3:
         raise UsageError("--speeds: give at least three speeds")
     out = Path(args.out or Path("runs") / f"study-{scene.name}")
     study = run_study(scene, out, ratio=args.ratio, speeds=speeds, parts=parts,
-                      finest=args.finest,
-                      ranks=args.ranks, scene_file=args.scene)
+                      finest=args.finest, ranks=args.ranks, scene_file=args.scene,
+                      progress=not args.quiet)
     print(f"\n{out}: the flow study")
     print(format_study(study))
     print(f"(all figures: {out / RESULT}; chart: {out / CHART})")

@@ -11,12 +11,13 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import importlib
-import json
 import math
 import time
 from pathlib import Path
 
 from adapter.errors import UsageError
+from adapter.jsonfiles import write_json
+from adapter.options import count, out_folder
 
 #: case name -> module (run in this order)
 CASES = {
@@ -141,12 +142,9 @@ def run_suite(out_dir, names=None, *, ranks: int = 1, quick: bool = False,
 
 
 def write_results(out: Path, results: list[CaseResult], quick: bool) -> Path:
-    from adapter.foam.summary import finite
-
     path = out / RESULTS
-    doc = {"quick": quick, "passed": all(r.passed for r in results),
-           "cases": [r.as_dict() for r in results]}
-    path.write_text(json.dumps(finite(doc), indent=2, allow_nan=False) + "\n")
+    write_json(path, {"quick": quick, "passed": all(r.passed for r in results),
+                      "cases": [r.as_dict() for r in results]})
     return path
 
 
@@ -157,12 +155,14 @@ def register(subparsers) -> None:
         description="Run reference flows through the whale case's solver, wall treatment, "
         "loads and (for moving bodies) the step-server and mesh motion; print measured "
         "against reference with pass/fail and write <out>/validation.json.")
-    p.add_argument("--out", type=Path, default=Path("out/validation"),
+    p.add_argument("--out", type=out_folder, default=Path("out/validation"),
                    help="output folder (default %(default)s)")
     p.add_argument("--cases", default="", help=f"comma-separated subset of {', '.join(CASES)}")
-    p.add_argument("--np", type=int, default=1, help="MPI ranks (default 1)")
+    p.add_argument("--np", type=count, default=1, help="MPI ranks (default 1)")
     p.add_argument("--quick", action="store_true",
                    help="tiny meshes and short runs: the machinery, not the answer")
+    p.add_argument("--quiet", "-q", action="store_true",
+                   help="no progress and no report on stdout, only warnings and errors on stderr")
     p.set_defaults(func=_cmd_validate)
 
 

@@ -75,7 +75,8 @@ int main(int argc, char* argv[])
 {
     if (argc < 2)
     {
-        std::fprintf(stderr, "usage: %s ENDPOINT [--reply-timeout S] STEP...\n", argv[0]);
+        std::fprintf(stderr, "usage: %s SOCKET|tcp:PORT|file:ENDPOINT_FILE"
+                     " [--reply-timeout S] STEP...\n", argv[0]);
         return 2;
     }
     stepServer::Endpoint ep;
@@ -83,6 +84,10 @@ int main(int argc, char* argv[])
     if (where.compare(0, 4, "tcp:") == 0)
     {
         ep.port = std::atoi(where.c_str() + 4);
+    }
+    else if (where.compare(0, 5, "file:") == 0)
+    {
+        ep.endpointFile = where.substr(5);
     }
     else
     {

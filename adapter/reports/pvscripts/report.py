@@ -380,7 +380,7 @@ def main(argv):
     meta["state"] = "whale.pvsm"
     meta["timings_s"]["total"] = time.perf_counter() - wall
     with open(os.path.join(out, "report.json"), "w") as f:
-        json.dump(meta, f, indent=2)
+        json.dump(meta, f, indent=2, allow_nan=False)   # finite: ranges, times, bounds
         f.write("\n")
     say(f"done in {meta['timings_s']['total']:.1f} s")
 

@@ -15,6 +15,7 @@
 #include "Time.H"
 #include "pointFields.H"
 #include "patchLoads.H"
+#include "gamgRestartOrder.H"
 
 // * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * * //
 
@@ -207,9 +208,12 @@ void stepServerDisplacementPointPatchVectorField::updateCoeffs()
         return;
     }
 
-    // The first update connects (collective: every rank's points gathered)
+    // The first update connects (collective: every rank's points gathered);
+    // the mesh's GAMG agglomeration starts forward after every motion, for
+    // exact restarts (whatever the motion solver)
     if (!link_->started())
     {
+        gamgRestartOrder::New(this->patch().boundaryMesh().mesh()());
         link_->connect(this->patch(), endpoint());
     }
 

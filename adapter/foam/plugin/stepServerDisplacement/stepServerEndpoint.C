@@ -26,7 +26,7 @@ std::string Endpoint::describe() const
     }
     if (!endpointFile.empty())
     {
-        return "the endpoint in " + endpointFile;
+        return "the address in " + endpointFile;
     }
     return socketPath;
 }

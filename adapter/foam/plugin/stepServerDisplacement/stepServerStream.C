@@ -231,7 +231,8 @@ void stepServerStream::sendAll(const std::vector<unsigned char>& buf)
         if (n < 0)
         {
             if (errno == EINTR) continue;
-            fail("send failed: " + errnoString(errno) + "; did the server stop?");
+            fail("the step-server stopped or crashed: sending to it failed ("
+                 + errnoString(errno) + ")");
         }
         done += std::size_t(n);
     }
@@ -274,21 +275,37 @@ void stepServerStream::recvAll(unsigned char* buf, std::size_t n)
         if (got < 0)
         {
             if (errno == EINTR || errno == EAGAIN) continue;
-            fail("receive failed: " + errnoString(errno) + "; did the server stop?");
+            fail("the step-server stopped or crashed: receiving from it failed ("
+                 + errnoString(errno) + ")");
         }
         if (got == 0)
         {
-            fail("the server closed the connection (EOF); did it stop or crash?");
+            fail("the step-server closed the connection (EOF): it stopped or crashed");
         }
         done += std::size_t(got);
     }
 }
 
 
+std::string stepServerStream::where() const
+{
+    if
+    (
+        endpoint_.endpointFile.empty() || connectedTo_.empty()
+     || connectedTo_ == endpoint_.describe()
+    )
+    {
+        return "step-server at " + endpoint_.describe();
+    }
+    return "step-server at " + connectedTo_ + ", named in "
+        + endpoint_.endpointFile;
+}
+
+
 void stepServerStream::fail(const std::string& msg)
 {
     close();
-    throw stepServerError(msg + " (server " + endpoint_.describe() + ")");
+    throw stepServerError(msg + " (" + where() + ")");
 }
 
 

@@ -5,6 +5,7 @@
 
 #include "whaleBlendedDisplacementMotionSolver.H"
 #include "pointKdTree.H"
+#include "gamgRestartOrder.H"
 #include "addToRunTimeSelectionTable.H"
 #include "pointConstraints.H"
 #include "valuePointPatchField.H"
@@ -146,6 +147,7 @@ Foam::whaleBlendedDisplacementMotionSolver::whaleBlendedDisplacementMotionSolver
 {
     readCoeffs();
     calcWeights();
+    gamgRestartOrder::New(mesh);
 }
 
 
@@ -161,6 +163,7 @@ Foam::whaleBlendedDisplacementMotionSolver::whaleBlendedDisplacementMotionSolver
 {
     readCoeffs();
     calcWeights();
+    gamgRestartOrder::New(mesh);
 }
 
 
