@@ -59,6 +59,11 @@ paraview-deps:
 chromium-deps:
 	@bash scripts/install_chromium.sh
 
+# a one-node SLURM cluster on this machine (docs/cluster.md); tests/test_slurm.py runs it itself
+.PHONY: slurm
+slurm:
+	@bash scripts/install_slurm.sh
+
 setup: venv system openfoam plugin paraview-deps chromium-deps
 
 lint: venv
