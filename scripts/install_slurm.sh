@@ -27,7 +27,7 @@ if [ "${1:-}" = "--stop" ]; then
 fi
 
 bash "$(dirname "$0")/apt_ensure.sh" "$name" slurmctld slurmd slurm-client munge
-[ "$(id -u)" -eq 0 ] || die "need root to configure and start munged, slurmctld and slurmd"
+need_root() { [ "$(id -u)" -eq 0 ] || die "need root to $*"; }   # only for what is not done yet
 
 # --- slurm.conf --------------------------------------------------------------------------
 host=$(hostname -s)
@@ -60,6 +60,7 @@ if [ -f "$conf" ] && ! grep -qxF "$marker" "$conf"; then
     die "$conf exists and was not written by this script; left as it is"
 fi
 if [ "$(cat "$conf" 2>/dev/null)" != "$want" ]; then
+    need_root "write $conf"
     mkdir -p /var/spool/slurmctld /var/spool/slurmd /var/log/slurm
     printf '%s\n' "$want" > "$conf"
     say "wrote $conf (node $host, 2 CPUs)"
@@ -67,8 +68,10 @@ if [ "$(cat "$conf" 2>/dev/null)" != "$want" ]; then
 fi
 
 # --- daemons -----------------------------------------------------------------------------
-alive() { [ -f "$1" ] && kill -0 "$(cat "$1")" 2>/dev/null; }
+# running: its pid file names a process that is not a zombie (readable without root)
+alive() { [ -f "$1" ] && [ -r "/proc/$(cat "$1")/status" ] && ! grep -q "^State:.*Z" "/proc/$(cat "$1")/status"; }
 if ! munge -n 2>/dev/null | unmunge >/dev/null 2>&1; then
+    need_root "start munged"
     install -d -o munge -g munge -m 0755 /run/munge
     runuser -u munge -- /usr/sbin/munged || die "munged did not start (/var/log/munge/munged.log)"
     say "started munged"
@@ -76,8 +79,8 @@ fi
 if [ -n "${changed:-}" ]; then   # a new configuration: restart what runs with the old one
     for f in /run/slurmd.pid /run/slurmctld.pid; do alive "$f" && kill "$(cat "$f")" && sleep 1; done
 fi
-alive /run/slurmctld.pid || { slurmctld || die "slurmctld did not start (/var/log/slurm/slurmctld.log)"; say "started slurmctld"; }
-alive /run/slurmd.pid || { slurmd || die "slurmd did not start (/var/log/slurm/slurmd.log)"; say "started slurmd"; }
+alive /run/slurmctld.pid || { need_root "start slurmctld"; slurmctld || die "slurmctld did not start (/var/log/slurm/slurmctld.log)"; say "started slurmctld"; }
+alive /run/slurmd.pid || { need_root "start slurmd"; slurmd || die "slurmd did not start (/var/log/slurm/slurmd.log)"; say "started slurmd"; }
 
 # --- the node takes jobs -----------------------------------------------------------------
 for _ in $(seq 1 60); do
