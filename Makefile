@@ -60,6 +60,18 @@ paraview-deps:
 chromium-deps:
 	@bash scripts/install_chromium.sh
 
+# a one-node SLURM cluster on this machine (docs/cluster.md); tests/test_slurm.py runs it itself
+.PHONY: slurm
+slurm:
+	@bash scripts/install_slurm.sh
+
+# compile check of the plugin against another OpenFOAM.com source tree, without linking; not in
+# `make test` (a tree is 100 MB): OPENFOAM_TREE=DIR, or OPENFOAM_GIT=GITDIR [OPENFOAM_COMMIT=C]
+.PHONY: plugin-check
+plugin-check:
+	@$(if $(OPENFOAM_TREE)$(OPENFOAM_GIT),,echo "plugin-check: set OPENFOAM_TREE=DIR or OPENFOAM_GIT=GITDIR (docs/openfoam-plugin.md)" >&2; exit 2;) \
+	bash scripts/check_plugin_compile.sh $(if $(OPENFOAM_TREE),$(OPENFOAM_TREE),--git $(OPENFOAM_GIT) $(or $(OPENFOAM_COMMIT),HEAD))
+
 setup: venv system openfoam plugin paraview-deps chromium-deps
 
 lint: venv

@@ -139,6 +139,20 @@ else
     fi
 fi
 
+# --- Which release ----------------------------------------------------------
+# OpenFOAM.com's META-INFO/api-info names the release's API (v1912: api=1912); the releases
+# the plugin knows are the known-apis line of its compatibility header (docs/openfoam-plugin.md)
+known=$(sed -n 's/^ *known-apis: *//p' "$plugin_src/whaleFoamCompat.H")
+api=$(sed -n 's/^api=//p' "$WM_PROJECT_DIR/META-INFO/api-info" 2>/dev/null || true)
+patch=$(sed -n 's/^patch=//p' "$WM_PROJECT_DIR/META-INFO/api-info" 2>/dev/null || true)
+if [ -z "$api" ]; then
+    say "WARNING: OpenFOAM ${WM_PROJECT_VERSION:-of unknown version} at $WM_PROJECT_DIR has no META-INFO/api-info: not OpenFOAM.com (ESI), perhaps the Foundation's line, which the plugin does not support (it knows OpenFOAM.com api $known); trying anyway"
+elif [[ " $known " == *" $api "* ]]; then
+    say "found OpenFOAM.com v$api (api $api, patch ${patch:-?}): a release the plugin knows (known: $known)"
+else
+    say "WARNING: found OpenFOAM.com v$api (api $api, patch ${patch:-?}): not a release the plugin knows (known: $known); trying anyway, see docs/openfoam-plugin.md"
+fi
+
 # --- Compile ---------------------------------------------------------------
 # wmake writes its objects next to Make/, so build from a copy in build/
 work=$build/plugin-src

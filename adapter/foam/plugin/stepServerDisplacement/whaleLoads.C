@@ -12,6 +12,7 @@
 
 #include "whaleLoads.H"
 #include "patchLoads.H"
+#include "whaleFoamCompat.H"
 #include "volFields.H"
 #include "surfaceFields.H"
 #include "addToRunTimeSelectionTable.H"
@@ -89,7 +90,7 @@ void Foam::functionObjects::whaleLoads::createFile()
         return;
     }
 
-    filePtr_ = writeFile::createFile("loads");
+    filePtr_ = writeFile::whaleFileAtStartTime("loads");
     OFstream& os = filePtr_();
 
     writeHeader(os, "Loads on the whale patches (N, W, m2)");
