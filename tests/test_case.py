@@ -24,13 +24,13 @@ from adapter.body import meshfile
 from adapter.body.geometry import build_surface
 from adapter.errors import AdapterError, SolverRunError
 from adapter.foam import case as C
+from adapter.foam import foamascii as FA
 from adapter.foam import folders as F
 from adapter.foam import logs as LG
 from adapter.foam import mesh as M
 from adapter.foam import parameters as P
 from adapter.foam import run as R
 from adapter.foam import summary as S
-from adapter.foam import yplus as YP
 from adapter.scene import load_scene
 
 needs_openfoam = pytest.mark.skipif(shutil.which("pimpleFoam") is None,
@@ -392,11 +392,11 @@ def test_smoke_mesh_has_a_whale_patch(smoke_mesh):
 def _whale_faces(case):
     """Centres and areas of the whale patch's faces."""
     mesh = case / "constant" / "polyMesh"
-    pts = YP.read_points(mesh / "points")
-    patch = YP.read_boundary(mesh / "boundary")["whale"]
-    faces = YP.read_faces(mesh / "faces")[patch["startFace"]:][:patch["nFaces"]]
+    pts = FA.read_points(mesh / "points")
+    patch = FA.read_boundary(mesh / "boundary")["whale"]
+    faces = FA.read_faces(mesh / "faces")[patch["startFace"]:][:patch["nFaces"]]
     centres = np.array([pts[f].mean(axis=0) for f in faces])
-    return centres, np.linalg.norm(YP.face_area_vectors(pts, faces), axis=1)
+    return centres, np.linalg.norm(FA.face_area_vectors(pts, faces), axis=1)
 
 
 @pytest.mark.openfoam

@@ -19,7 +19,7 @@ from adapter.foam import case as C
 from adapter.foam import folders as F
 from adapter.foam import mesh as M
 from adapter.foam import run as R
-from adapter.foam.yplus import read_foam_text, read_points
+from adapter.foam.foamascii import read_foam_text, read_points
 from adapter.scene import load_scene
 
 pytestmark = [

@@ -16,7 +16,7 @@ from adapter.foam import case as C
 from adapter.foam import folders as F
 from adapter.foam import mesh as M
 from adapter.foam import run as R
-from adapter.foam.yplus import read_foam_text
+from adapter.foam.foamascii import read_foam_text
 from adapter.scene import load_scene
 
 TIMES = ["0", "0.19140625", "0.3828125", "0.57421875"]
