@@ -33,9 +33,6 @@ from adapter.foam import run as R
 from adapter.foam import summary as S
 from adapter.scene import load_scene
 
-needs_openfoam = pytest.mark.skipif(shutil.which("pimpleFoam") is None,
-                                    reason="OpenFOAM (pimpleFoam) is not on PATH")
-
 
 @pytest.fixture(scope="module")
 def smoke():
@@ -236,6 +233,7 @@ def test_prepare_case_writes_readable_dictionaries(tmp_path, smoke, smoke_surfac
     assert record["parameters"]["n_steps"] == p.n_steps
 
 
+@pytest.mark.slow
 def test_prepare_case_default_is_turbulent_and_static_option(tmp_path, smoke_surface,
                                                              monkeypatch):
     scene = load_scene(preset="default")
@@ -367,8 +365,6 @@ Mesh OK.
 @pytest.fixture(scope="module")
 def smoke_mesh(tmp_path_factory, smoke, smoke_surface):
     """A meshed smoke case with a static whale, shared by the tests below (copy before use)."""
-    if shutil.which("pimpleFoam") is None:
-        pytest.skip("OpenFOAM (pimpleFoam) is not on PATH")
     case = tmp_path_factory.mktemp("smoke") / "case"
     C.prepare_case(smoke, case, surface=smoke_surface, static_whale=True)
     info = M.mesh_case(case)
@@ -376,7 +372,6 @@ def smoke_mesh(tmp_path_factory, smoke, smoke_surface):
 
 
 @pytest.mark.openfoam
-@needs_openfoam
 def test_smoke_mesh_has_a_whale_patch(smoke_mesh):
     case, info = smoke_mesh
     assert 1000 < info["cells"] < 20000
@@ -400,7 +395,6 @@ def _whale_faces(case):
 
 
 @pytest.mark.openfoam
-@needs_openfoam
 @pytest.mark.parametrize("key, stl, solid", [("flipper_level", C.FLIPPERS_STL, "flippers"),
                                              ("fluke_level", C.FLUKE_BLADE_STL, "flukeBlade")])
 def test_the_flippers_and_flukes_get_finer_cells(tmp_path, smoke, smoke_surface, smoke_mesh,
@@ -442,7 +436,6 @@ def test_the_flippers_and_flukes_get_finer_cells(tmp_path, smoke, smoke_surface,
 
 
 @pytest.mark.openfoam
-@needs_openfoam
 def test_mesh_failure_names_the_log(tmp_path, smoke, smoke_surface):
     case = tmp_path / "case"
     C.prepare_case(smoke, case, surface=smoke_surface, static_whale=True)
@@ -453,7 +446,6 @@ def test_mesh_failure_names_the_log(tmp_path, smoke, smoke_surface):
 
 @pytest.mark.openfoam
 @pytest.mark.slow
-@needs_openfoam
 def test_static_smoke_run(tmp_path, smoke_mesh):
     src, _ = smoke_mesh
     case = tmp_path / "case"
@@ -549,7 +541,6 @@ def test_run_case_refuses_a_foreign_folder_before_meshing(tmp_path, capsys):
 
 @pytest.mark.openfoam
 @pytest.mark.slow
-@needs_openfoam
 def test_run_case_twice_with_the_same_preset_continues(tmp_path, capsys):
     """What `make run-case SCENE=smoke CASE=DIR` does twice: the second run reuses the case;
     another preset is refused, naming both."""
@@ -623,7 +614,6 @@ def test_cell_sizes_follow_the_body_length(tmp_path, smoke, smoke_surface):
 
 @pytest.mark.openfoam
 @pytest.mark.slow
-@needs_openfoam
 def test_a_smaller_animal_meshes_and_runs_on_the_smoke_preset(tmp_path, smoke_surface):
     """A 2.5 m closed mesh on the smoke preset: cells scale with the body, so it meshes with a
     whale patch like the 15 m whale's, and a static run goes to the end."""
@@ -641,8 +631,7 @@ def test_a_smaller_animal_meshes_and_runs_on_the_smoke_preset(tmp_path, smoke_su
 
 @pytest.mark.openfoam
 @pytest.mark.slow
-@needs_openfoam
-@pytest.mark.skipif(not C.PLUGIN_LIB.is_file(), reason=f"the library {C.PLUGIN_LIB} is not built")
+@pytest.mark.plugin
 def test_run_case_stops_before_the_mesh_inverts(tmp_path, smoke_mesh):
     src, _ = smoke_mesh
     case = tmp_path / "case"

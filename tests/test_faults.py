@@ -217,6 +217,7 @@ def _read_replies(sock: socket.socket) -> list:
     return frames
 
 
+@pytest.mark.slow
 def test_fuzzed_frames_never_crash_or_lie(case, serve, animator, points, truth):
     """10,000 connections of garbage, truncated, oversized and mistyped frames on one server.
 
@@ -341,6 +342,7 @@ def _wait_for_socket(case: Path, proc: subprocess.Popen, timeout=90.0) -> None:
         time.sleep(0.1)
 
 
+@pytest.mark.slow
 def test_second_server_on_a_case_is_refused_naming_the_first(case, points):
     first = _serve_cli(case)
     try:
@@ -485,6 +487,7 @@ def test_the_undamaged_obj_copy_is_accepted(tmp_path, animator):
     assert np.isfinite(a.displacement(0.01)).all()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["negative constant", "open surface"])
 def test_bad_input_on_the_command_line_is_one_line_not_a_traceback(tmp_path, case, animator,
                                                                    name):
@@ -628,17 +631,9 @@ def test_an_unreadable_state_file_is_ignored_on_restart(case, serve, points, tru
 
 # --- with the real pimpleFoam (smoke preset) --------------------------------------------------
 
-_HAVE_FOAM = shutil.which("pimpleFoam") is not None and C.PLUGIN_LIB.is_file()
-
-
 def openfoam(test):
     """Mark a test that runs the real pimpleFoam; skipped only without it or the plugin."""
-    test = pytest.mark.skipif(shutil.which("pimpleFoam") is None,
-                              reason="pimpleFoam is not on PATH")(test)
-    test = pytest.mark.skipif(not C.PLUGIN_LIB.is_file(),
-                              reason=f"the plugin {C.PLUGIN_LIB} is not built "
-                                     "(scripts/build_plugin.sh)")(test)
-    return pytest.mark.openfoam(test)
+    return pytest.mark.openfoam(pytest.mark.plugin(test))
 
 
 #: flow steps of the fault runs (written every 4 steps, as the smoke preset does)
@@ -688,8 +683,6 @@ def _complete(files: dict) -> bool:
 def foam_case(tmp_path_factory, scene):
     """A meshed smoke case of FAULT_STEPS steps, and the whale's displacement at every written
     time of its uninterrupted run: name -> (P, 3)."""
-    if not _HAVE_FOAM:
-        pytest.skip("OpenFOAM or the plugin is missing")
     base = tmp_path_factory.mktemp("faults")
     mesh = base / "mesh"
     C.prepare_case(scene, mesh)

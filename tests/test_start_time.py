@@ -107,7 +107,6 @@ def _field(case: Path, time: str, name: str = "U") -> np.ndarray:
 
 
 @pytest.mark.openfoam
-@pytest.mark.skipif(shutil.which("pimpleFoam") is None, reason="OpenFOAM is not installed")
 def test_run_case_recomputes_from_the_users_start_time(tmp_path, capsys):
     """The smoke case, static whale, to its end (8 steps, written every 4); then startTime at
     the middle write: the last time is recomputed (a new folder) from there, said so, and

@@ -9,7 +9,6 @@ the coordinates, not from the code under test).
 from __future__ import annotations
 
 import gzip
-import shutil
 
 import numpy as np
 import pytest
@@ -20,9 +19,6 @@ from adapter.foam import foamascii as FA
 from adapter.foam import mesh as M
 from adapter.foam import run as R
 from adapter.foam import yplus as Y
-
-needs_openfoam = pytest.mark.skipif(shutil.which("pimpleFoam") is None,
-                                    reason="OpenFOAM (pimpleFoam) is not on PATH")
 
 _HEADER = """/*--------------------------------*- C++ -*----------------------------------*\\
   a comment block ( with parentheses ) 3 ( 1 2 3 )
@@ -235,7 +231,6 @@ def test_parse_layer_report():
 
 
 @pytest.mark.openfoam
-@needs_openfoam
 def test_smoke_case_with_layers_and_yplus(tmp_path, smoke_scene, smoke_surface):
     """A smoke-sized case with one prism layer: meshed, run for its 8 steps; the layer record
     and the y+ statistics come out (whale area a few hundred m2 at this coarse surface)."""
