@@ -3,6 +3,7 @@
 #   make run-case   the main job: pimpleFoam coupled to the step-server (SCENE, CASE, NP)
 #   make study      the flow study: three meshes (GCI), time step, self-propelled speed (SCENE, STUDY, NP)
 #   make test       lint + the whole test suite, OpenFOAM and ParaView included
+#   make typecheck  mypy on adapter/ (not yet part of lint)
 #   make test-fast  lint + the tests that need no OpenFOAM, ParaView, chromium or apt (under 90 s)
 #   make dry-run    animate without fluid (SCENE, OUT, CYCLES)
 #   make bench      performance figures (bench-flow: moving against static flow step); make chart: the numerics study; make paraview: pictures
@@ -32,7 +33,7 @@ JOBS ?= 2
 
 scene_args = $(if $(filter %.toml,$(SCENE)),--scene $(SCENE),--preset $(SCENE))
 
-.PHONY: help setup venv system openfoam plugin test test-fast lint dry-run calibrate run-case study bench bench-flow \
+.PHONY: help setup venv system openfoam plugin test test-fast lint typecheck dry-run calibrate run-case study bench bench-flow \
         chart paraview paraview-deps chromium-deps mutation validate clean distclean
 
 help:
@@ -67,6 +68,10 @@ setup: venv system openfoam plugin paraview-deps chromium-deps
 
 lint: venv
 	$(BIN)/ruff check adapter tests scripts
+
+# mypy on adapter/ (pyproject's [tool.mypy]); not in lint until it finds no error
+typecheck: venv
+	$(BIN)/mypy
 
 test: setup lint
 	$(BIN)/pytest -ra $(PYTEST_ARGS)
