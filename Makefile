@@ -3,6 +3,8 @@
 #   make run-case   the main job: pimpleFoam coupled to the step-server (SCENE, CASE, NP)
 #   make study      the flow study: three meshes (GCI), time step, self-propelled speed (SCENE, STUDY, NP)
 #   make test       lint + the whole test suite, OpenFOAM and ParaView included
+#   make typecheck  mypy on adapter/ (not yet part of lint)
+#   make test-fast  lint + the tests that need no OpenFOAM, ParaView, chromium or apt (under 90 s)
 #   make dry-run    animate without fluid (SCENE, OUT, CYCLES)
 #   make bench      performance figures (bench-flow: moving against static flow step); make chart: the numerics study
 #   make paraview   ParaView pictures of the case just run (CASE; DIR=out/dry-run for a dry-run)
@@ -23,13 +25,16 @@ CASE ?= runs/$(basename $(notdir $(SCENE)))
 STUDY ?= runs/study-$(basename $(notdir $(SCENE)))
 VALIDATION ?= out/validation
 PYTEST_ARGS ?=
+# the fast lane: the tests without a mark for a program from outside Python, nor slow
+# (tests/conftest.py; tests/test_fast_lane.py checks the selection)
+FAST := not openfoam and not plugin and not paraview and not browser and not slow and not install
 # make mutation: the modules to mutate (default: all of pyproject's [tool.whale-adapter.mutation])
 MODULES ?=
 JOBS ?= 2
 
 scene_args = $(if $(filter %.toml,$(SCENE)),--scene $(SCENE),--preset $(SCENE))
 
-.PHONY: help setup venv system openfoam plugin test lint dry-run calibrate run-case study bench bench-flow \
+.PHONY: help setup venv system openfoam plugin test test-fast lint typecheck dry-run calibrate run-case study bench bench-flow \
         chart paraview paraview-deps chromium-deps mutation validate clean distclean
 
 help:
@@ -77,8 +82,16 @@ setup: venv system openfoam plugin paraview-deps chromium-deps
 lint: venv
 	$(BIN)/ruff check adapter tests scripts
 
+# mypy on adapter/ (pyproject's [tool.mypy]); not in lint until it finds no error
+typecheck: venv
+	$(BIN)/mypy
+
 test: setup lint
 	$(BIN)/pytest -ra $(PYTEST_ARGS)
+
+# no apt: the Python packages alone
+test-fast: lint
+	$(BIN)/pytest -ra -m "$(FAST)" $(PYTEST_ARGS)
 
 dry-run: venv system
 	$(BIN)/whale-adapter dry-run $(scene_args) --out $(OUT) $(if $(CYCLES),--cycles $(CYCLES))

@@ -1,5 +1,12 @@
 """Shared fixtures: the smoke scene and its whale, built once per session; the marks of the
-tests that run OpenFOAM with the plugin library."""
+tests that need a program from outside Python.
+
+A test says what it needs with a mark, and the mark alone skips it when that is missing (the
+one check, in :func:`pytest_runtest_setup`): ``openfoam`` (OpenFOAM's pimpleFoam, blockMesh
+and snappyHexMesh on PATH), ``plugin`` (the built library :data:`adapter.foam.case.PLUGIN_LIB`),
+``paraview`` (pvbatch), ``browser`` (chromium). ``make test-fast`` deselects them all, and
+``slow`` and ``install`` (the Makefile's ``FAST``).
+"""
 
 import shutil
 
@@ -9,6 +16,40 @@ from adapter.body.geometry import build_surface
 from adapter.foam import case as C
 from adapter.motion.animator import Animator
 from adapter.scene import load_scene
+
+#: the OpenFOAM programs the tests run (Debian's openfoam package puts them all on PATH)
+FOAM_TOOLS = ("pimpleFoam", "blockMesh", "snappyHexMesh")
+
+
+def missing(mark: str) -> str | None:
+    """Why a test marked ``mark`` cannot run here, or None when it can."""
+    if mark == "openfoam":
+        absent = [t for t in FOAM_TOOLS if shutil.which(t) is None]
+        return f"OpenFOAM ({', '.join(absent)}) is not on PATH" if absent else None
+    if mark == "plugin":
+        return None if C.PLUGIN_LIB.is_file() else \
+            f"the library {C.PLUGIN_LIB} is not built (scripts/build_plugin.sh)"
+    if mark == "paraview":
+        return None if shutil.which("pvbatch") else \
+            "ParaView (pvbatch) is not installed; install it with `make paraview-deps`"
+    if mark == "browser":
+        return None if shutil.which("chromium") else \
+            "chromium is not installed (scripts/install_chromium.sh)"
+    return None
+
+
+#: the marks that say what a test needs from outside Python
+NEEDS = ("openfoam", "plugin", "paraview", "browser")
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item):
+    """Skip a test whose marks need what is missing, before its fixtures are set up."""
+    for mark in NEEDS:
+        if item.get_closest_marker(mark) is not None:
+            reason = missing(mark)
+            if reason:
+                pytest.skip(reason)
 
 
 @pytest.fixture(scope="session")
@@ -35,11 +76,4 @@ def paper_animator(smoke_scene, smoke_surface):
 
 
 #: tests that run pimpleFoam with the plugin library on a case they build with blockMesh
-NEEDS_FOAM_AND_PLUGIN = [
-    pytest.mark.openfoam,
-    pytest.mark.slow,
-    pytest.mark.skipif(shutil.which("pimpleFoam") is None or shutil.which("blockMesh") is None,
-                       reason="OpenFOAM (pimpleFoam, blockMesh) is not on PATH"),
-    pytest.mark.skipif(not C.PLUGIN_LIB.is_file(),
-                       reason=f"the library {C.PLUGIN_LIB} is not built (scripts/build_plugin.sh)"),
-]
+NEEDS_FOAM_AND_PLUGIN = [pytest.mark.openfoam, pytest.mark.plugin, pytest.mark.slow]

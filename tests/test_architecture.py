@@ -285,7 +285,9 @@ def test_foamfiles_is_a_leaf(sources):
 
 
 def test_the_tests_use_no_private_name_of_the_package(sources):
-    tests = {p.stem: p.read_text() for p in sorted(Path(__file__).parent.glob("*.py"))}
+    here = Path(__file__).parent
+    tests = {".".join(p.relative_to(here).with_suffix("").parts): p.read_text()
+             for p in sorted(here.rglob("*.py"))}
     assert private_uses_by_tests(tests, sources) == []
     planted = {"test_x": "from adapter.body import springs\n"
                          "from adapter.body.springs import _kernel\n"
@@ -396,6 +398,18 @@ def test_modules_and_classes_are_small(sources):
     assert oversized(sources) == []
     big = {"adapter.foam.big": "class Big:\n" + "    x = 1\n" * MAX_CLASS_LINES}
     assert oversized(big) == ["adapter.foam.big.Big: 251 lines"]
+
+
+#: the limit for a test file (issue 29): a file over it holds more than one concern
+MAX_TEST_FILE_LINES = 500
+
+
+def test_test_files_are_small():
+    tests = Path(__file__).parent
+    sizes = {str(p.relative_to(tests)): len(p.read_text().splitlines())
+             for p in sorted(tests.rglob("*.py"))}
+    assert "test_architecture.py" in sizes
+    assert {k: n for k, n in sizes.items() if n > MAX_TEST_FILE_LINES} == {}
 
 
 # -- the checks catch what they are for -----------------------------------------------------

@@ -208,6 +208,7 @@ def _ids(cases):
     return [f"{c}-{' '.join(a) or 'none'}" for c, a, _ in cases]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cmd, args, fragment", SUBPROCESS, ids=_ids(SUBPROCESS))
 def test_bad_input_in_a_subprocess(runs, cmd, args, fragment):
     r = runs[(cmd, tuple(args))]
@@ -225,6 +226,7 @@ def test_bad_input_in_process(root, monkeypatch, capsys, cmd, args, fragment):
     _check(cmd, code, capsys.readouterr().err, fragment)
 
 
+@pytest.mark.slow
 def test_no_bad_input_left_anything_behind(runs, root):
     """Refused before any work: no output folder or case was made."""
     made = {p.name for p in root.iterdir()} - {"afile", "folder", "range.toml", "open.stl",

@@ -7,7 +7,6 @@ enough, and the smoke whale accepted."""
 import json
 import math
 import re
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -20,9 +19,6 @@ from adapter.foam import case as C
 from adapter.foam import mesh as M
 from adapter.foam import run as R
 from adapter.scene import load_scene
-
-needs_openfoam = pytest.mark.skipif(shutil.which("snappyHexMesh") is None,
-                                    reason="OpenFOAM (snappyHexMesh) is not on PATH")
 
 HEADER = "FoamFile\n{\n    version 2.0;\n    format ascii;\n    class %s;\n    object %s;\n}\n"
 
@@ -135,7 +131,6 @@ def _slender_scene(folder: Path, case_lines: str = ""):
 
 
 @pytest.mark.openfoam
-@needs_openfoam
 def test_a_mesh_that_misses_the_slender_body_is_refused_before_the_solver(tmp_path):
     """No background edge cuts the body: refused by mesh_case, naming the cause and the
     setting (case.background_cell at most 0.528 / sqrt 2 / 4.4 = 0.0849 -> 0.084), recorded,
@@ -159,7 +154,6 @@ def test_a_mesh_that_misses_the_slender_body_is_refused_before_the_solver(tmp_pa
 
 
 @pytest.mark.openfoam
-@needs_openfoam
 def test_the_slender_body_meshed_on_cells_it_suggests_is_accepted(tmp_path):
     """The suggested background cell (a small domain around the body, to mesh in seconds):
     refined at the surface, the patch's area and volume within a few % of the spheroid's."""
@@ -181,7 +175,6 @@ def test_the_slender_body_meshed_on_cells_it_suggests_is_accepted(tmp_path):
 
 
 @pytest.mark.openfoam
-@needs_openfoam
 def test_the_smoke_whale_is_accepted_and_a_mangled_one_refused(tmp_path):
     """The smoke whale passes; against a surface 1.5 times larger (area x 2.25, volume x 3.375:
     the same mesh now misses most of it) the check refuses it naming the area; with prism

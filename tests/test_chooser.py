@@ -37,6 +37,7 @@ def _half_stroke(scene, method, dt, count=False):
     return np.array(out), calls[0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("tolerance", [
     0.2,
     # strict xfail until the smooth stroke's push and the fluke gate were applied once per

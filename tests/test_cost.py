@@ -131,6 +131,7 @@ def _no_nan(text: str) -> dict:
     return json.loads(text, parse_constant=refuse)
 
 
+@pytest.mark.slow
 def test_the_pairs_answer_is_the_hand_figures(tmp_path):
     case, glide, record = _pair(tmp_path)
     drag = float(ld.cycle_stats(*[ld.read_loads(glide)[k] for k in

@@ -23,13 +23,11 @@ from adapter.foam import run as R
 from adapter.motion.animator import Animator
 from adapter.scene import load_scene
 
+from .conftest import NEEDS_FOAM_AND_PLUGIN
+
 pytestmark = [
-    pytest.mark.openfoam,
-    pytest.mark.slow,
-    pytest.mark.skipif(shutil.which("pimpleFoam") is None or shutil.which("mpirun") is None,
-                       reason="OpenFOAM (pimpleFoam, mpirun) is not on PATH"),
-    pytest.mark.skipif(not C.PLUGIN_LIB.is_file(),
-                       reason=f"the plugin {C.PLUGIN_LIB} is not built (scripts/build_plugin.sh)"),
+    *NEEDS_FOAM_AND_PLUGIN,
+    pytest.mark.skipif(shutil.which("mpirun") is None, reason="mpirun is not on PATH"),
 ]
 
 _NUM = r"[-+0-9.eE]+"

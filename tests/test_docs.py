@@ -231,6 +231,7 @@ def test_the_readme_shows_the_quick_commands():
     assert set(QUICK) <= shown, f"the README's quick commands: {sorted(shown)}"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", [c for c in readme_commands()
                                      if c.startswith("whale-adapter ")])
 def test_a_readme_command_runs(command, tmp_path):

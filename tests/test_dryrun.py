@@ -24,6 +24,7 @@ def smoke_run(tmp_path_factory):
     return out, res.stdout
 
 
+@pytest.mark.slow
 def test_summary_has_every_figure(smoke_run):
     out, stdout = smoke_run
     s = json.loads((out / "summary.json").read_text())
@@ -37,6 +38,7 @@ def test_summary_has_every_figure(smoke_run):
     assert "fluke tip" in stdout
 
 
+@pytest.mark.slow
 def test_keypoints_csv_reads_back(smoke_run):
     out, _ = smoke_run
     scene = load_scene(preset="smoke")
@@ -52,6 +54,7 @@ def test_keypoints_csv_reads_back(smoke_run):
     assert np.ptp(data[last, 4]) == pytest.approx(s["peak_to_peak_m"]["fluke_tip"], rel=1e-6)
 
 
+@pytest.mark.slow
 def test_pvd_and_frames_read_back(smoke_run):
     out, _ = smoke_run
     scene = load_scene(preset="smoke")
@@ -72,6 +75,7 @@ def test_pvd_and_frames_read_back(smoke_run):
     assert np.abs(mid.point_data["displacement"]).max() > 0.1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["keypoints.png", "frames.png"])
 def test_pictures_are_not_blank(smoke_run, name):
     out, _ = smoke_run

@@ -19,11 +19,13 @@ def default_surface():
     return build_surface(load_scene())
 
 
+@pytest.mark.slow
 def test_default_resolution_matches_the_paper_within_two_percent(default_surface):
     assert abs(default_surface.n_nodes / PAPER_NODES - 1) < 0.02
     assert abs(len(default_surface.edges) / PAPER_EDGES - 1) < 0.02
 
 
+@pytest.mark.slow
 def test_whale_is_mirror_symmetric_to_the_bit(default_surface):
     p = default_surface.points
     mirrored = p * np.array([1.0, -1.0, 1.0])
@@ -32,6 +34,7 @@ def test_whale_is_mirror_symmetric_to_the_bit(default_surface):
     assert all(tuple(row) in key for row in mirrored.tolist())
 
 
+@pytest.mark.slow
 def test_proportions(default_surface):
     p, L = default_surface.points, default_surface.length
     assert np.ptp(p[:, 0]) == pytest.approx(L, rel=0.06)  # fluke tips slightly past the notch
@@ -45,6 +48,7 @@ def test_proportions(default_surface):
     assert depth == pytest.approx(0.212, rel=0.05)
 
 
+@pytest.mark.slow
 def test_landmarks_and_regions(default_surface):
     surf = default_surface
     p, s, lm = surf.points, surf.s, surf.landmarks

@@ -92,8 +92,7 @@ def test_smoke_dry_run(installed):
 
 
 @pytest.mark.openfoam
-@pytest.mark.skipif(shutil.which("pimpleFoam") is None or not C.PLUGIN_LIB.is_file(),
-                    reason="needs pimpleFoam and the built plugin (scripts/build_plugin.sh)")
+@pytest.mark.plugin
 def test_smoke_run_case(installed):
     bin_dir, env, work = installed
     env = dict(env, WHALE_PLUGIN_LIB=str(C.PLUGIN_LIB))

@@ -39,7 +39,7 @@ from adapter.errors import SolverRunError
 from adapter.foam import case as C
 from adapter.foam import logs as LG
 from adapter.foam import tools as T
-from adapter.foam.yplus import read_boundary, read_faces, read_points
+from adapter.foam.foamascii import read_boundary, read_faces, read_points
 
 from .channel_case import (
     FV_SCHEMES,

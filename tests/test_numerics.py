@@ -23,18 +23,21 @@ def predicted(small):
     return predict(small.network, small.rest, small.dynamic, exact=True)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", EXPLICIT)
 def test_predicted_and_measured_stable_steps_agree(small, predicted, method):
     measured = nm.measure_stable_dt(small, method, predicted[method])
     assert abs(measured / predicted[method] - 1) < 0.10, (method, predicted[method], measured)
 
 
+@pytest.mark.slow
 def test_forward_euler_stable_below_and_unstable_above(small, predicted):
     dt = predicted["forward_euler"]
     assert nm.perturbation_growth(small, "forward_euler", 0.9 * dt, n_steps=20000, every=10) < 1
     assert nm.perturbation_growth(small, "forward_euler", 1.1 * dt, n_steps=20000, every=10) > 1
 
 
+@pytest.mark.slow
 def test_a_mode_that_grows_then_saturates_is_called_unstable(small, predicted):
     # RK4 8 % past the bound: the stiff mode grows ~1000 times in tens of steps, then the
     # stretched springs stop it and the whale settles crumpled: still unstable
@@ -42,6 +45,7 @@ def test_a_mode_that_grows_then_saturates_is_called_unstable(small, predicted):
     assert nm.perturbation_growth(small, "rk4", 0.9 * predicted["rk4"]) < 1
 
 
+@pytest.mark.slow
 def test_observed_orders_of_the_explicit_methods_match_theory(small):
     steps = {"forward_euler": (1600, 3200), "symplectic_euler": (1600, 3200),
              "verlet": (200, 400), "rk4": (128, 256)}
@@ -65,6 +69,7 @@ def test_a_step_past_the_bound_is_refused_with_the_stable_step(smoke_scene, smok
         Animator(bad, smoke_surface)
 
 
+@pytest.mark.slow
 def test_a_run_past_the_bound_stops_before_handing_on_nan(small, predicted):
     dt = 3.0 * predicted["symplectic_euler"]
     small.set_integrator("symplectic_euler", dt)
@@ -75,6 +80,7 @@ def test_a_run_past_the_bound_stops_before_handing_on_nan(small, predicted):
     assert np.abs(small.X - small.rest).max() <= 2.0 * small.surface.length
 
 
+@pytest.mark.slow
 def test_the_chooser_meets_its_stated_tolerance(smoke_scene):
     from adapter.studies import chooser
 
@@ -104,6 +110,7 @@ def test_the_chooser_meets_its_stated_tolerance(smoke_scene):
 FAST_BOUND_BELOW = {0.05: 0.29, 0.3: 0.15, 0.5: 0.13, 3.0: 0.03}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mu", sorted(FAST_BOUND_BELOW))
 def test_fast_forward_euler_bound_is_safe_and_as_documented(smoke_scene, smoke_surface, mu):
     a = Animator(smoke_scene.replace(springs={"mu": mu}), smoke_surface)

@@ -30,6 +30,7 @@ def truth(whale):
     return X
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", sorted(STEPS))
 def test_observed_order_on_the_whole_whale_is_the_methods(whale, truth, method):
     quarter = whale.period / 4
@@ -43,6 +44,7 @@ def test_observed_order_on_the_whole_whale_is_the_methods(whale, truth, method):
     assert abs(order - THEORY[method]) < 0.2, (method, errors, order)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["forward_euler", "symplectic_euler", "verlet", "rk4",
                                     "backward_euler"])
 def test_compiled_driven_step_equals_the_generic_one(whale, method):
@@ -63,6 +65,7 @@ def test_compiled_driven_step_equals_the_generic_one(whale, method):
         assert np.abs(f[1] - V).max() > 0  # the step moved
 
 
+@pytest.mark.slow
 def test_the_tether_is_in_the_stable_step(whale):
     """The tether's damping lowers symplectic Euler's bound: the animator's prediction takes
     the smaller of the steps with and without it."""

@@ -64,6 +64,7 @@ def test_a_launcher_gets_np_substituted_or_appended():
 
 # -- the decomposition -------------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_decompositions_written_and_kept(tmp_path, smoke_scene, smoke_surface):
     case = tmp_path / "case"
     C.prepare_case(smoke_scene, case, ranks=2, surface=smoke_surface)

@@ -29,13 +29,11 @@ from scipy.ndimage import distance_transform_edt
 from adapter.errors import AdapterError
 from adapter.reports import paraview_report as R
 
-HAVE_PVBATCH = shutil.which("pvbatch") is not None
+from .conftest import missing
 
 
 def needs_paraview(test):
-    """Marks a test paraview and slow, skipped when pvbatch is not installed."""
-    test = pytest.mark.skipif(not HAVE_PVBATCH, reason="ParaView (pvbatch) is not installed; "
-                              "install it with `make paraview-deps`")(test)
+    """Marks a test paraview (skipped when pvbatch is not installed) and slow."""
     return pytest.mark.paraview(pytest.mark.slow(test))
 
 
@@ -238,12 +236,10 @@ def dry_report(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def case_report(tmp_path_factory):
-    from adapter.foam import case as C
-
-    if shutil.which("pimpleFoam") is None or shutil.which("mpirun") is None:
-        pytest.skip("OpenFOAM (pimpleFoam, mpirun) is not on PATH: no coupled case to draw")
-    if not C.PLUGIN_LIB.is_file():
-        pytest.skip(f"the plugin {C.PLUGIN_LIB} is not built (scripts/build_plugin.sh)")
+    reason = missing("openfoam") or missing("plugin") or (
+        "mpirun is not on PATH" if shutil.which("mpirun") is None else None)
+    if reason:
+        pytest.skip(f"{reason}: no coupled case to draw")
     case = tmp_path_factory.mktemp("paraview-case") / "smoke"
     _cli("run-case", "--preset", "smoke", "--case", str(case))
     _cli("paraview", str(case))

@@ -150,8 +150,6 @@ def test_the_study_page_holds_its_cases_and_chart(tmp_path):
 # -- in a real browser --------------------------------------------------------------------------
 
 CHROMIUM = shutil.which("chromium")
-needs_chromium = pytest.mark.skipif(
-    CHROMIUM is None, reason="chromium is not installed (scripts/install_chromium.sh)")
 
 #: what the test adds to a copy of the page to read it back: console and error hooks first, the
 #: pictures' sizes once the page has loaded; the page's policy is widened by inline scripts alone
@@ -195,7 +193,7 @@ def open_in_chromium(page: Path, tmp_path: Path) -> dict:
     return result
 
 
-@needs_chromium
+@pytest.mark.browser
 def test_the_probe_sees_a_broken_picture_and_a_console_error(tmp_path):
     """The harness itself: a picture that does not decode and a page script's errors."""
     page = tmp_path / "bad.html"
@@ -210,7 +208,7 @@ def test_the_probe_sees_a_broken_picture_and_a_console_error(tmp_path):
     assert any(p.startswith("blocked: https://example.org") for p in seen["problems"])
 
 
-@needs_chromium
+@pytest.mark.browser
 def test_the_report_renders_its_pictures_in_chromium(tmp_path):
     page = write_report(make_case(tmp_path), rows=COST_ROWS)
     seen = open_in_chromium(page, tmp_path)
@@ -220,7 +218,7 @@ def test_the_report_renders_its_pictures_in_chromium(tmp_path):
     assert seen["problems"] == [] and seen["console"] == []
 
 
-@needs_chromium
+@pytest.mark.browser
 def test_the_study_page_renders_in_chromium(tmp_path):
     page = write_study_report(tmp_path, STUDY, IMG / "accuracy-vs-cost.png")
     seen = open_in_chromium(page, tmp_path)

@@ -19,16 +19,12 @@ from adapter.foam import case as C
 from adapter.foam import folders as F
 from adapter.foam import mesh as M
 from adapter.foam import run as R
-from adapter.foam.yplus import read_foam_text, read_points
+from adapter.foam.foamascii import read_foam_text, read_points
 from adapter.scene import load_scene
 
-pytestmark = [
-    pytest.mark.openfoam,
-    pytest.mark.slow,
-    pytest.mark.skipif(shutil.which("pimpleFoam") is None, reason="OpenFOAM is not installed"),
-    pytest.mark.skipif(not C.PLUGIN_LIB.is_file(),
-                       reason=f"the plugin library {C.PLUGIN_LIB} is not built"),
-]
+from .conftest import NEEDS_FOAM_AND_PLUGIN
+
+pytestmark = NEEDS_FOAM_AND_PLUGIN
 
 FIELDS = ("U", "p", "phi", "meshPhi", "Uf")
 TOLERANCE = 1e-9

@@ -331,6 +331,7 @@ def test_model_failure_reaches_the_client(case, serve, scene, points):
     assert finished(srv) == 1
 
 
+@pytest.mark.slow
 def test_command_line(case, points):
     env = dict(os.environ)
     proc = subprocess.Popen(

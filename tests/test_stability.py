@@ -53,6 +53,7 @@ def _fe_growth(net, X0, dt, n_steps, seed=0):
     return max(np.abs(X - X0).max(), np.abs(V).max()) / early
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mu, form", [(0.5, "paper"), (0.5, "symmetric"), (3.0, "paper")])
 def test_forward_euler_bounds_against_the_exact_spectrum(mu, form):
     X, net = _closed_net(mu=mu, form=form)
@@ -66,6 +67,7 @@ def test_forward_euler_bounds_against_the_exact_spectrum(mu, form):
     assert fast >= 0.5 * exact, (fast, exact)
 
 
+@pytest.mark.slow
 def test_forward_euler_does_not_grow_at_the_fast_bound_and_grows_just_past_the_exact_one():
     X, net = _closed_net()
     exact, lam = _exact_fe_bound(net, X)
@@ -315,6 +317,7 @@ def _modes_from_fd(net, X, free=None, tether=(0.0, 0.0)):
     return lam[np.abs(lam) > 1e-7 * np.abs(lam).max()]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("tether", [(0.0, 0.0), (50.0, 0.3)])
 def test_predict_exact_against_the_modes_of_finite_differences(tether):
     """Every method's step: the smallest over the exact modes (numpy eig of the
@@ -352,6 +355,7 @@ def _sym_top(net, X, free=None):
     return w[-1], float(u @ (-Jv[np.ix_(dofs, dofs)]) @ u)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("form", ["paper", "symmetric"])
 def test_the_fast_estimate_is_the_documented_bound(form):
     """exact=False: the other methods' step is that of the stiffest mode of K's symmetric
@@ -447,6 +451,7 @@ def test_paper_criterion_dt():
     assert paper_criterion_dt(F / 26) == pytest.approx(2.0, rel=1e-15)
 
 
+@pytest.mark.slow
 def test_the_fast_estimate_converges_on_a_larger_network():
     """On 1200 degrees of freedom the stiffest mode to the digits of a dense eigensolver
     (K's symmetric part from springs.stiffness_matrix, which tests/test_springs.py checks

@@ -16,7 +16,7 @@ from adapter.foam import case as C
 from adapter.foam import folders as F
 from adapter.foam import mesh as M
 from adapter.foam import run as R
-from adapter.foam.yplus import read_foam_text
+from adapter.foam.foamascii import read_foam_text
 from adapter.scene import load_scene
 
 TIMES = ["0", "0.19140625", "0.3828125", "0.57421875"]
@@ -107,7 +107,6 @@ def _field(case: Path, time: str, name: str = "U") -> np.ndarray:
 
 
 @pytest.mark.openfoam
-@pytest.mark.skipif(shutil.which("pimpleFoam") is None, reason="OpenFOAM is not installed")
 def test_run_case_recomputes_from_the_users_start_time(tmp_path, capsys):
     """The smoke case, static whale, to its end (8 steps, written every 4); then startTime at
     the middle write: the last time is recomputed (a new folder) from there, said so, and

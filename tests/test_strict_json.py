@@ -75,6 +75,7 @@ def _run(*args, cwd):
                           capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.slow
 def test_the_smoke_dry_run_writes_strict_json(tmp_path):
     res = _run("dry-run", "--preset", "smoke", "--out", "out", "--quiet", cwd=tmp_path)
     assert res.returncode == 0, res.stderr[-2000:]
@@ -83,6 +84,7 @@ def test_the_smoke_dry_run_writes_strict_json(tmp_path):
     assert "measured_period_s" in summary and summary["measured_period_s"] is None
 
 
+@pytest.mark.slow
 def test_choose_prints_strict_json(tmp_path):
     """Backward Euler has no stable step limit (infinite): printed as null."""
     res = _run("choose", "--preset", "smoke", "--tolerance", "0.05", "--nodes", "600",

@@ -34,6 +34,7 @@ def test_without_springs_the_body_follows_the_closed_form_target(smoke_scene, sm
         np.testing.assert_allclose(d[away, :2], 0, atol=2e-3)
 
 
+@pytest.mark.slow
 def test_wall_velocity_is_continuous_at_the_start_and_every_reversal(smoke_animator,
                                                                      paper_animator):
     """Largest velocity change of any node between two internal steps, around the start and
@@ -98,6 +99,7 @@ def smooth_summary(tmp_path_factory):
                       write_files=False)
 
 
+@pytest.mark.slow
 def test_smooth_stroke_is_symmetric_periodic_and_feathers(smooth_summary):
     s = smooth_summary
     target = s["fluke_tip_target_m"]
@@ -161,6 +163,7 @@ def _largest_kink_along_the_back(a, times, band=0.06):
     return max(np.abs(turns(a.positions(t)) - rest).max() for t in times)
 
 
+@pytest.mark.slow
 def test_bending_joint_removes_the_crease_at_the_tail_base(smoke_scene):
     """The paper's hinge (the default) folds the surface at the tail base: the whole difference
     between the table's pitch and the body's own is one turn of the back's midline. The joint

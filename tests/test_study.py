@@ -65,6 +65,7 @@ def _smoke_with_layers(smoke_scene):
                                      "writes_per_cycle": 4})
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("finest, own", [("scene", 1), ("refined", 2)])
 def test_three_meshes_scale_every_cell_by_the_ratio(tmp_path, smoke_scene, smoke_surface,
                                                     finest, own):
@@ -153,6 +154,7 @@ class _Model:
         return summary
 
 
+@pytest.mark.slow
 def test_study_machinery_with_a_model_runner_stops_resumes_and_answers(tmp_path, smoke_scene,
                                                                         smoke_surface, capsys):
     out = tmp_path / "study"

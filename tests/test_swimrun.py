@@ -4,7 +4,6 @@ run-case's gliding + swimming pair on the smoke whale with the real pimpleFoam."
 
 import json
 import math
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -163,12 +162,10 @@ gliding = true
 """
 
 
-@pytest.mark.skipif(shutil.which("pimpleFoam") is None, reason="OpenFOAM is not installed")
+@pytest.mark.openfoam
+@pytest.mark.plugin
+@pytest.mark.slow
 def test_run_case_runs_gliding_and_swimming_to_a_periodic_state(tmp_path):
-    from adapter.foam.case import PLUGIN_LIB
-
-    if not PLUGIN_LIB.is_file():
-        pytest.skip(f"the plugin library {PLUGIN_LIB} is not built (make plugin)")
     scene = tmp_path / "glide.toml"
     scene.write_text(SCENE)
     case = tmp_path / "case"

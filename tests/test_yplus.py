@@ -1,4 +1,5 @@
-"""adapter.foam.yplus: OpenFOAM ASCII readers and area-weighted y+ statistics.
+"""adapter.foam.foamascii (the OpenFOAM ASCII readers) and adapter.foam.yplus (area-weighted y+
+statistics).
 
 The hand-built mesh: two hexahedra side by side, x in [0, 1] and [1, 3], y in [0, 1],
 z in [0, 1]. Its bottom (z = 0) faces form the patch ``whale`` with areas 1 and 2 m2 (from
@@ -8,19 +9,16 @@ the coordinates, not from the code under test).
 from __future__ import annotations
 
 import gzip
-import shutil
 
 import numpy as np
 import pytest
 
 from adapter.errors import AdapterError
 from adapter.foam import case as C
+from adapter.foam import foamascii as FA
 from adapter.foam import mesh as M
 from adapter.foam import run as R
 from adapter.foam import yplus as Y
-
-needs_openfoam = pytest.mark.skipif(shutil.which("pimpleFoam") is None,
-                                    reason="OpenFOAM (pimpleFoam) is not on PATH")
 
 _HEADER = """/*--------------------------------*- C++ -*----------------------------------*\\
   a comment block ( with parentheses ) 3 ( 1 2 3 )
@@ -146,9 +144,9 @@ def tiny_case(tmp_path, request):
 
 
 def test_patch_face_areas_of_the_hand_built_mesh(tiny_case):
-    assert Y.patch_face_areas(tiny_case, "whale").tolist() == pytest.approx([1.0, 2.0])
+    assert FA.patch_face_areas(tiny_case, "whale").tolist() == pytest.approx([1.0, 2.0])
     # top 1 + 2, ends 1 and 1, front and back 1 + 2 each
-    assert Y.patch_face_areas(tiny_case, "walls").sum() == pytest.approx(3 + 2 + 3 + 3)
+    assert FA.patch_face_areas(tiny_case, "walls").sum() == pytest.approx(3 + 2 + 3 + 3)
 
 
 def test_yplus_stats_are_area_weighted(tiny_case):
@@ -172,8 +170,8 @@ def test_a_moving_mesh_reads_the_points_of_its_time(tiny_case):
     """Points written into a time folder (a moving mesh) are used for that time and later;
     faces and boundary still come from constant/polyMesh."""
     _write(tiny_case / "0.5" / "polyMesh" / "points", _points_text(_points(scale_x=2.0)))
-    assert Y.patch_face_areas(tiny_case, "whale", "1").tolist() == pytest.approx([2.0, 4.0])
-    assert Y.patch_face_areas(tiny_case, "whale", "0.25").tolist() == pytest.approx([1.0, 2.0])
+    assert FA.patch_face_areas(tiny_case, "whale", "1").tolist() == pytest.approx([2.0, 4.0])
+    assert FA.patch_face_areas(tiny_case, "whale", "0.25").tolist() == pytest.approx([1.0, 2.0])
     s = Y.yplus_stats(tiny_case, "1")
     assert s["area_m2"] == pytest.approx(6.0)
 
@@ -181,11 +179,11 @@ def test_a_moving_mesh_reads_the_points_of_its_time(tiny_case):
 def test_uniform_values_and_errors(tiny_case, tmp_path):
     field = tmp_path / "f"
     field.write_text(_yplus_text([1.0, 2.0]).replace("walls", "other"))
-    assert Y.read_patch_field(field, "other", 4).tolist() == [7.0] * 4
+    assert FA.read_patch_field(field, "other", 4).tolist() == [7.0] * 4
     with pytest.raises(AdapterError, match="no patch nose"):
-        Y.read_patch_field(field, "nose")
+        FA.read_patch_field(field, "nose")
     with pytest.raises(AdapterError, match="no patch nose"):
-        Y.patch_face_areas(tiny_case, "nose")
+        FA.patch_face_areas(tiny_case, "nose")
     with pytest.raises(AdapterError, match="no time folder 2"):
         Y.yplus_stats(tiny_case, "2")
 
@@ -196,7 +194,7 @@ def test_face_area_vectors_of_polygons():
     # (normal +y), and a tilted planar square
     sq = np.array([[0, 0, 0], [1, 0, 1], [1, 1, 1], [0, 1, 0.0]])  # sides 1 and sqrt(2)
     allp = np.vstack([pts, sq])
-    a = Y.face_area_vectors(allp, [np.array([0, 1, 2]), np.array([0, 3, 1]),
+    a = FA.face_area_vectors(allp, [np.array([0, 1, 2]), np.array([0, 3, 1]),
                                    np.array([5, 6, 7, 8])])
     assert a[0] == pytest.approx([0, 0, 3.0])
     assert a[1] == pytest.approx([0, 4.0, 0])
@@ -233,7 +231,6 @@ def test_parse_layer_report():
 
 
 @pytest.mark.openfoam
-@needs_openfoam
 def test_smoke_case_with_layers_and_yplus(tmp_path, smoke_scene, smoke_surface):
     """A smoke-sized case with one prism layer: meshed, run for its 8 steps; the layer record
     and the y+ statistics come out (whale area a few hundred m2 at this coarse surface)."""

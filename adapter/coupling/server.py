@@ -28,7 +28,9 @@ import selectors
 import socket
 import threading
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 from adapter.coupling.listener import (
     PID_NAME,
@@ -65,6 +67,16 @@ MAP_CACHE_NAME = "patch-map.npz"
 OUTPUT_DIR = "adapter"
 #: seconds the clients get to read an ERROR 6 before the server exits anyway
 _FATAL_GRACE_S = 10.0
+
+
+@dataclass(frozen=True)
+class _Parts:
+    """What :meth:`StepServer.start` builds for a run: the animator's timeline, the outputs'
+    recorder and the restart state's store."""
+
+    timeline: Timeline
+    recorder: Recorder
+    store: StateStore
 
 
 class StepServer:
@@ -107,14 +119,32 @@ class StepServer:
         self.summary = ""
         self.stats: dict = {}
         self.stats_counter = ServerStats()
-        self.timeline: Timeline | None = None
-        self.recorder: Recorder | None = None
-        self.store: StateStore | None = None
+        self._parts: _Parts | None = None
         self.links = Links(self.case_dir, self.stats_counter)
         self._fatal_at = 0.0
         self._vanished = False
         self._stop = threading.Event()
         self._log_handler: logging.Handler | None = None
+
+    @property
+    def timeline(self) -> Timeline:
+        """The animator advanced to the times asked for (once started)."""
+        return self._started().timeline
+
+    @property
+    def recorder(self) -> Recorder:
+        """The run's outputs: surfaces, key points, statistics (once started)."""
+        return self._started().recorder
+
+    @property
+    def store(self) -> StateStore:
+        """The restart state files (once started)."""
+        return self._started().store
+
+    def _started(self) -> _Parts:
+        if self._parts is None:
+            raise RuntimeError("the step-server is not started: call start() first")
+        return self._parts
 
     @property
     def tcp_address(self) -> tuple[str, int] | None:
@@ -165,9 +195,9 @@ class StepServer:
         # exchange that OpenFOAM times (then back to t = 0, bit for bit)
         a.displacement(a.dt)
         a.reset()
-        self.store = StateStore(self.out_dir, fingerprint(self.scene, a.surface, a.dt), a.dt)
-        self.recorder = Recorder(self.out_dir, a.surface)
-        self.timeline = Timeline(a, self.store, on_served=self.recorder.served)
+        store = StateStore(self.out_dir, fingerprint(self.scene, a.surface, a.dt), a.dt)
+        recorder = Recorder(self.out_dir, a.surface)
+        self._parts = _Parts(Timeline(a, store, on_served=recorder.served), recorder, store)
 
     def serve(self) -> int:
         """Start, then serve until the run ends; returns the exit code."""
@@ -190,7 +220,7 @@ class StepServer:
             while not self._stop.is_set():
                 for key, _ in sel.select(timeout=0.05):
                     try:
-                        sock, addr = key.fileobj.accept()
+                        sock, addr = cast(socket.socket, key.fileobj).accept()
                     except OSError:
                         continue
                     self._accept(sock, addr)
@@ -238,8 +268,8 @@ class StepServer:
         """Stop listening and remove this server's files, without the end-of-run outputs (a
         server started but never run; :meth:`finish` ends with it)."""
         self.listener.remove_files()
-        if self.recorder is not None:
-            self.recorder.close()
+        if self._parts is not None:
+            self._parts.recorder.close()
         if self._log_handler is not None:
             _ROOM_LOG.removeHandler(self._log_handler)
             self._log_handler.close()

@@ -30,7 +30,13 @@ import numpy as np
 
 from adapter.errors import MeshError
 from adapter.foam.dictionaries import parsed_dict
-from adapter.foam.yplus import face_area_vectors, mesh_file, read_boundary, read_faces, read_points
+from adapter.foam.foamascii import (
+    face_area_vectors,
+    mesh_file,
+    read_boundary,
+    read_faces,
+    read_points,
+)
 
 #: the whale patch has at least this share of the faces its surface level implies
 FACE_SHARE = 0.5
