@@ -133,8 +133,8 @@ def test_flapping_quick_mode_is_served_by_the_step_server(tmp_path):
     from adapter.body.meshfile import read_surface
     from adapter.body.polygons import triangulate
     from adapter.coupling.mapping import PatchMap
+    from adapter.foam.foamascii import read_boundary, read_faces, read_points
     from adapter.foam.loads import read_loads
-    from adapter.foam.yplus import read_boundary, read_faces, read_points
 
     results = run_suite(tmp_path, ["flapping"], quick=True, echo=lambda s: None)
     r = results[0]

@@ -337,7 +337,7 @@ def plain_floats(rows: list) -> list:
 def wall_surface(case: Path) -> tuple:
     """The foil patch's points (P, 3) and the closed surface's triangles (T, 3) made of them:
     each wall quad split in two and the two end caps fanned from the leading edge; outward."""
-    from adapter.foam.yplus import read_boundary, read_faces, read_points
+    from adapter.foam.foamascii import read_boundary, read_faces, read_points
 
     mesh = case / "constant" / "polyMesh"
     patch = read_boundary(mesh / "boundary")[WALL]
