@@ -127,9 +127,7 @@ class Integrator:
 
 @dataclass(frozen=True)
 class Rigid:
-    """A rigid prescribed motion of any closed body instead of the whale's stroke: x(t) = r A
-    sin(w t + phase), theta(t) = r Theta sin(w t + phase) about the axis through the centre,
-    w = 2 pi f, r(t) a ramp from 0 to 1 over ramp_cycles (docs/scene.md, "A rigid body")."""
+    """A rigid prescribed motion of any closed body instead of the stroke (docs/scene.md)."""
 
     enabled: bool = False
     frequency_hz: float = field(default=0.25, metadata={"check": _positive})
@@ -137,7 +135,7 @@ class Rigid:
     translation_phase_deg: float = 0.0
     rotation_deg: float = 0.0
     rotation_phase_deg: float = 0.0
-    rotation_axis: tuple = field(default=(0.0, 0.0, 1.0), metadata={"vector": True, "check": any})
+    rotation_axis: tuple = field(default=(0.0, 0.0, 1.0), metadata={"vector": True})
     rotation_centre_m: tuple = field(default=(0.0, 0.0, 0.0), metadata={"vector": True})
     ramp_cycles: float = field(default=0.0, metadata={"check": _within(0, 10)})
 
@@ -332,6 +330,8 @@ def _check_relations(obj, path: str) -> None:
         raise SceneError(f"{path}.head_node must lie ahead of (be smaller than) {path}.pivot")
     if isinstance(obj, Regions) and not obj.head_end < obj.tail_start:
         raise SceneError(f"{path}.head_end must be smaller than {path}.tail_start")
+    if isinstance(obj, Rigid) and not any(obj.rotation_axis):
+        raise SceneError(f"{path}.rotation_axis: give a direction, not [0, 0, 0]")
     still = isinstance(obj, Scene) and obj.flow.speed_m_s == 0
     if still and not (obj.rigid.enabled and obj.case.dt_s > 0):
         raise SceneError("flow.speed_m_s = 0 (still water) needs rigid.enabled and case.dt_s > 0")

@@ -142,3 +142,13 @@ def test_the_step_server_serves_the_rigid_motion(tmp_path):
         assert finished(srv) == 0
     finally:
         stop_all()
+
+
+def test_a_rigid_body_has_no_dry_run_and_says_so(tmp_path, capsys):
+    from adapter.cli import main
+
+    write_scene(tmp_path, "translation_m = [0.1, 0, 0]")
+    code = main(["dry-run", "--scene", str(tmp_path / "ball.toml"), "--out",
+                 str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "none of the whale's landmarks" in err[0]

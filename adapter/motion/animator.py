@@ -44,6 +44,11 @@ class Animator:
         self.scene = scene
         self.surface = surface if surface is not None else build_surface(scene)
         surf = self.surface
+        if not surf.is_whale:
+            raise SceneError(
+                f"{scene.geometry.source} has none of the whale's landmarks, which the "
+                "spring-mass stroke needs (geometry.landmarks): a body in rigid motion "
+                "([rigid]) runs with run-case or validate; it has no dry-run of its own")
         self.rest = surf.points
         s = surf.s
         self.tail_base_s = float(s[surf.landmarks["tail_base"]])
