@@ -11,7 +11,8 @@ from adapter.body.geometry import build_surface
 from adapter.body.meshfile import write_surface
 from adapter.errors import SceneError
 from adapter.motion.animator import Animator, animator_for
-from adapter.motion.rigid import RigidLaw, RigidMotion, ramp
+from adapter.motion.gait import smootherstep
+from adapter.motion.rigid import RigidLaw, RigidMotion
 from adapter.scene import load_scene
 from adapter.validation.sphere import icosphere
 
@@ -82,9 +83,9 @@ def test_velocity_is_the_derivative_of_the_displacement(tmp_path):
 
 
 def test_ramp_starts_from_rest():
-    assert ramp(0.0, 2.0) == (0.0, 0.0, 0.0)
-    assert ramp(2.0, 2.0) == (1.0, 0.0, 0.0) and ramp(5.0, 0.0) == (1.0, 0.0, 0.0)
-    r, dr, _ = ramp(1.0, 2.0)
+    assert smootherstep(0.0, 2.0) == (0.0, 0.0, 0.0)
+    assert smootherstep(2.0, 2.0) == (1.0, 0.0, 0.0) and smootherstep(5.0, 0.0) == (1.0, 0.0, 0.0)
+    r, dr, _ = smootherstep(1.0, 2.0)
     assert r == 0.5 and dr == pytest.approx(30 / 16 / 2)    # 30 u^2 (1-u)^2 / T at u = 1/2
 
 

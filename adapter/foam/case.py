@@ -99,6 +99,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
                                       scene.case.fluke_clearance * params.fluke_cell_m)
     decomposition = choose_decomposition(case, scene.case.decomposition, scene.base_dir)
     write_dictionaries(case, scene, params, static_whale, decomposition)
+    # a body without the whale's landmarks is all body: its "tail base" lies past its end
     tail_base_s = float(surface.s[surface.landmarks["tail_base"]]) if surface.is_whale else 2.0
     st = scene.stroke
     if scene.rigid.enabled:

@@ -3,7 +3,8 @@
 The scene's ``[rigid]`` section (:class:`~adapter.scene.Rigid`) gives a translation
 ``x(t) = r(t) A sin(w t + phi_x)`` and a turn ``theta(t) = r(t) Theta sin(w t + phi_theta)``
 about the axis ``n`` through the centre ``c`` (right-hand rule), ``w = 2 pi f`` and ``r(t)`` the
-ramp from 0 to 1 over ``ramp_cycles`` (the quintic smoothstep, so that velocity and
+ramp from 0 to 1 over ``ramp_cycles`` (the quintic smoothstep of
+:func:`~adapter.motion.gait.smootherstep`, so that velocity and
 acceleration start from zero). A point ``p`` of the body at rest is at
 
     ``c + x(t) + R(theta(t)) (p - c)``,
@@ -22,22 +23,11 @@ import math
 import numpy as np
 
 from adapter.body.geometry import build_surface
+from adapter.motion.gait import smootherstep
 
 #: the bookkeeping step (s) is the period over this: the timeline's "behind" test and the
 #: server's log use it; the motion itself has no step
 STEPS_PER_CYCLE = 1000
-
-
-def ramp(t: float, duration: float) -> tuple[float, float, float]:
-    """(r, r', r'') of the quintic smoothstep r = 10 u^3 - 15 u^4 + 6 u^5, u = t / duration
-    clipped to [0, 1]; (1, 0, 0) for a zero duration."""
-    if duration <= 0 or t >= duration:
-        return 1.0, 0.0, 0.0
-    u = max(t, 0.0) / duration
-    r = u**3 * (10 - 15 * u + 6 * u * u)
-    dr = 30 * u**2 * (1 - u) ** 2 / duration
-    d2r = 60 * u * (1 - u) * (1 - 2 * u) / duration**2
-    return r, dr, d2r
 
 
 def rotation_matrix(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -63,7 +53,7 @@ class RigidLaw:
 
     def _wave(self, t: float, phase: float) -> tuple[float, float, float]:
         """(s, s', s'') of r(t) sin(w t + phase)."""
-        r, dr, d2r = ramp(t, self.ramp_s)
+        r, dr, d2r = smootherstep(t, self.ramp_s)
         w = self.omega
         sn, cs = math.sin(w * t + phase), math.cos(w * t + phase)
         return (r * sn, dr * sn + r * w * cs,
@@ -134,6 +124,3 @@ class RigidMotion:
         """(N, 3) node velocities (m/s) at time t (s)."""
         self._t = float(t)
         return self.law.velocity(self.rest, t)
-
-    def positions(self, t: float) -> np.ndarray:
-        return self.rest + self.displacement(t)
