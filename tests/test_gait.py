@@ -15,7 +15,7 @@ from adapter.errors import SceneError
 from adapter.motion.gait import (
     FlukeTable,
     SmoothStroke,
-    joint_bend,
+    joint_blend,
     load_fluke_table,
     ramp,
     rotation_y,
@@ -303,12 +303,13 @@ def test_rotation_raises_x_toward_z():
     np.testing.assert_allclose(R @ [0, 2.0, 0], [0, 2.0, 0], atol=1e-15)
 
 
-def test_joint_bend_by_hand():
-    s = np.array([0.80, 0.805, 0.81, 0.815, 0.82, 0.9])
-    np.testing.assert_array_equal(joint_bend(s, 0.8, 0.0), np.ones(6))
-    np.testing.assert_array_equal(joint_bend(s, 0.8, -0.1), np.ones(6))
-    # u = (s - 0.8) / 0.02 = 0, 1/4, 1/2, 3/4, 1, 5 (held at 1)
+def test_joint_blend_by_hand():
+    s = np.array([0.78, 0.785, 0.79, 0.795, 0.80, 0.9])
+    np.testing.assert_array_equal(joint_blend(s, 0.8, 0.0), np.ones(6))
+    np.testing.assert_array_equal(joint_blend(s, 0.8, -0.1), np.ones(6))
+    # a joint of 0.02 ahead of the tail base: u = (s - 0.78) / 0.02 = 0, 1/4, 1/2, 3/4, 1, 6
+    # (held at 1 on the fluke)
     quintic = [0.0, 0.103515625, 0.5, 0.896484375, 1.0, 1.0]
-    np.testing.assert_allclose(joint_bend(s, 0.8, 0.02), quintic, rtol=1e-12, atol=1e-15)
-    # ahead of the tail base (a node the gate would not carry): 0, not negative
-    assert joint_bend(np.array([0.79]), 0.8, 0.02)[0] == 0.0
+    np.testing.assert_allclose(joint_blend(s, 0.8, 0.02), quintic, rtol=1e-12, atol=1e-15)
+    # ahead of the joint (a node the gate would not carry): 0, not negative
+    assert joint_blend(np.array([0.77]), 0.8, 0.02)[0] == 0.0

@@ -163,25 +163,64 @@ def _largest_kink_along_the_back(a, times, band=0.06):
     return max(np.abs(turns(a.positions(t)) - rest).max() for t in times)
 
 
+def _worst_surface_strain(a, times):
+    """(largest turn, deg, between neighbouring triangles beyond their turn at rest; smallest
+    and largest edge length over rest length) of the whole surface over ``times``: the fold
+    measures of docs/stroke.md, recomputed here from the positions alone."""
+    tri, edges, r = a.surface.triangles, a.surface.edges, a.rest
+    owners = {}
+    for k, (i, j, m) in enumerate(tri):
+        for e in ((i, j), (j, m), (m, i)):
+            owners.setdefault((min(e), max(e)), []).append(k)
+    pairs = np.array([v for v in owners.values() if len(v) == 2])
+
+    def turns(x):
+        n = np.cross(x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]])
+        n /= np.linalg.norm(n, axis=1)[:, None]
+        cos = np.clip((n[pairs[:, 0]] * n[pairs[:, 1]]).sum(axis=1), -1.0, 1.0)
+        return np.degrees(np.arccos(cos))
+
+    def lengths(x):
+        return np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1)
+
+    turn0, len0 = turns(r), lengths(r)
+    worst, short, long_ = 0.0, 1.0, 1.0
+    for t in times:
+        x = a.positions(t)
+        worst = max(worst, float((turns(x) - turn0).max()))
+        ratio = lengths(x) / len0
+        short, long_ = min(short, float(ratio.min())), max(long_, float(ratio.max()))
+    return worst, short, long_
+
+
 @pytest.mark.slow
-def test_bending_joint_removes_the_crease_at_the_tail_base(smoke_scene):
-    """The paper's hinge (the default) folds the surface at the tail base: the whole difference
-    between the table's pitch and the body's own is one turn of the back's midline. The joint
-    spreads it over the fluke root, starting from the body's own motion (a 4,000-node whale,
-    whose edges are short enough to resolve the joint's 0.45 m)."""
+def test_the_joint_bends_the_peduncle_where_the_hinge_folds_it(smoke_scene):
+    """The paper's hinge (fluke_joint = 0) folds the surface at the tail base: the whole
+    difference between the table's pitch and the body's own is one turn of the back's
+    midline, past 90 deg. The joint (0.06 L ahead of the tail base) spreads it over the
+    peduncle: over two cycles no two neighbouring faces turn by 30 deg beyond their rest
+    angle and every edge stays within 0.7-1.4 of its length (issue targets; a 4,000-node
+    whale, whose edges resolve the joint's 0.9 m)."""
     scene = smoke_scene.replace(geometry={"nodes": 4000})
     surface = build_surface(scene)
-    assert scene.stroke.fluke_joint == 0.0
-    hinge = Animator(scene, surface)
-    joint = Animator(scene.replace(stroke={"fluke_joint": 0.03}), surface)
+    hinge = Animator(scene.replace(stroke={"fluke_joint": 0.0}), surface)
+    joint = Animator(scene.replace(stroke={"fluke_joint": 0.06}), surface)
     times = np.linspace(hinge.period, 2 * hinge.period, 33)
     crease, bend = _largest_kink_along_the_back(hinge, times), _largest_kink_along_the_back(
         joint, times)
     # a turn beyond 90 deg: one segment of the back points backwards past its neighbour (the
-    # surface folds over itself); the joint keeps every turn well short of that
-    assert crease > 90 and bend < 70, (crease, bend)
-    # behind the joint the blades turn by the table's angle exactly as with the hinge: the
-    # fluke tips are where the hinge puts them, to the body's small difference at the hinge
+    # surface folds over itself); the joint keeps every turn small
+    assert crease > 90 and bend < 30, (crease, bend)
+    hinge.reset()
+    joint.reset()
+    folded = _worst_surface_strain(hinge, times)
+    assert folded[0] > 90 or folded[1] < 0.7 or folded[2] > 1.4, folded
+    joint.reset()
+    worst, short, long_ = _worst_surface_strain(joint, times)
+    assert worst < 30 and short > 0.7 and long_ < 1.4, (worst, short, long_)
+    # behind the joint the blades turn by the table's angle about the paper's hinge, which
+    # rides on the body's line: the fluke tips are where the hinge puts them, to the body's
+    # small difference between its line and the hinge nodes' own motion
     tips = [surface.landmarks[k] for k in ("fluke_tip_left", "fluke_tip_right")]
     hinge.reset()
     joint.reset()

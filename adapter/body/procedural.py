@@ -38,9 +38,31 @@ _TOP_SHARE = {0.0: 0.5, 0.05: 0.42, 0.15: 0.40, 0.30: 0.45, 0.45: 0.5, 1.0: 0.5}
 _AXIS_Z = {0.0: 0.025, 0.05: 0.028, 0.15: 0.022, 0.30: 0.008, 0.45: 0.0, 1.0: 0.0}
 
 
+# Section thickness over chord, (root, tip): the flippers' from the humpback flipper's
+# sections (Fish and Battle 1995: symmetric, 0.20-0.28, mean 0.23); the flukes' a choice in
+# the range of cetacean fluke sections (docs/geometry.md). Both sections are NACA four-digit.
+FLIPPER_THICKNESS = (0.23, 0.20)
+# ... and over the outer fifth of the span, where the chord closes, the flipper's sections
+# round off to t/c 0.30 at the tip (the humpback's thickest point moves back to 0.49 c there)
+FLIPPER_TIP_ROUNDING = 0.10
+#: the outer share of a fin's span over which its sections turn from the foil into an ellipse
+TIP_ROUND = 0.2
+FLUKE_THICKNESS = (0.20, 0.12)
+
+
 def _profile(table: dict) -> PchipInterpolator:
     s = np.array(sorted(table))
     return PchipInterpolator(s, np.array([table[k] for k in s]))
+
+
+def foil_half_thickness(xc: np.ndarray, thickness_ratio: float) -> np.ndarray:
+    """Half-thickness over chord of the symmetric NACA four-digit section at chord fraction
+    ``xc`` (0 at the leading edge), with the closed trailing edge (last coefficient -0.1036):
+    a round leading edge of radius 1.1019 (t/c)^2 c, the thickest point at 0.30 c and a sharp
+    trailing edge (Abbott and von Doenhoff 1959, eq. 6.2)."""
+    x = np.clip(xc, 0.0, 1.0)
+    return 5.0 * thickness_ratio * (0.2969 * np.sqrt(x) - 0.1260 * x - 0.3516 * x**2
+                                    + 0.2843 * x**3 - 0.1036 * x**4)
 
 
 def _ring_positions(n_x: int) -> np.ndarray:
@@ -93,7 +115,7 @@ class _Fin:
     direction: np.ndarray  # unit growth direction
     length: float
     chord: object  # chord(t) in m, t in [0, 1] from root to tip
-    thickness: object
+    thickness_ratio: object  # the section's thickness over chord at t
     sweep: object = None  # extra displacement along x (m) as function of t
     chord_axis: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
 
@@ -116,10 +138,31 @@ def _fin_layers(f: _Fin, loop_xyz: np.ndarray, inner_rc: list) -> tuple[np.ndarr
     e1 = f.chord_axis - (f.chord_axis @ d) * d
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(d, e1)
-    # loop index -> angle on the section ellipse: the long sides (along the body) map to the
-    # chord's upper and lower faces, the short sides to its leading and trailing edges
+    # loop index -> angle alpha around the section: the long sides (along the body) map to
+    # the chord's upper and lower faces, the short sides to its leading edge (alpha = pi, head
+    # side) and trailing edge (alpha = 0). The chord fraction 1 - cos(pi tau / 2), tau the
+    # share of the way from the leading to the trailing edge, puts the nodes closest together
+    # at the round leading edge and evenly toward the sharp trailing edge, whose faces would
+    # otherwise be slivers that the stroke's small differences of motion fold
     step = 2 * np.pi / P
     alpha = np.pi + (f.b / 2 + np.arange(P)) * step
+    tau = 1 - np.abs(np.angle(np.exp(1j * alpha))) / np.pi
+    xc_foil = 1 - np.cos(0.5 * np.pi * tau)
+    upper = np.sign(np.round(np.sin(alpha), 12))
+    # toward the tip the sections turn into ellipses of the same t/c (over the outer
+    # TIP_ROUND of the span): the tip cap joins the last section with faces the stroke does
+    # not fold, which a sharp trailing edge and a clustered leading edge would make slivers
+    xc_ellipse = 0.5 * (1 + np.cos(alpha))
+    half_ellipse = 0.5 * np.abs(np.sin(alpha))
+
+    def section(t):
+        """(chord fraction, half-thickness over chord) of the loop's nodes at t."""
+        w = float(np.clip((t - (1 - TIP_ROUND)) / TIP_ROUND, 0.0, 1.0))
+        w = w * w * (3 - 2 * w)
+        tc = f.thickness_ratio(t)
+        xc = (1 - w) * xc_foil + w * xc_ellipse
+        half = (1 - w) * foil_half_thickness(xc, tc) + w * tc * half_ellipse
+        return xc, half
     # which face is which: the first long side runs at phi0, compare with the other side
     side = np.sign((loop_xyz[: f.a + 1].mean(0) - loop_xyz[f.a + f.b : 2 * f.a + f.b].mean(0)) @ e2)
     side = side if side != 0 else 1.0
@@ -133,9 +176,10 @@ def _fin_layers(f: _Fin, loop_xyz: np.ndarray, inner_rc: list) -> tuple[np.ndarr
 
     def ring(t):
         c = centre(t)
-        ch, th = f.chord(t), f.thickness(t)
-        return (c + 0.5 * ch * np.cos(alpha)[:, None] * e1
-                - side * 0.5 * th * np.sin(alpha)[:, None] * e2)
+        ch = f.chord(t)
+        xc, half = section(t)
+        return (c + ch * (xc - 0.5)[:, None] * e1
+                - side * (upper * half * ch)[:, None] * e2)
 
     root_ring = ring(0.0) - f.root + centre0
     layers = []
@@ -146,10 +190,12 @@ def _fin_layers(f: _Fin, loop_xyz: np.ndarray, inner_rc: list) -> tuple[np.ndarr
     layers = np.array(layers)
     # interior nodes make the rounded tip cap
     tip = []
-    c1, ch, th = centre(1.0), f.chord(1.0), f.thickness(1.0)
+    c1, ch, tc = centre(1.0), f.chord(1.0), f.thickness_ratio(1.0)
     for i, j in inner_rc:
         p = -1 + 2 * (i - f.ring0) / f.a
         q = -1 + 2 * (j - f.phi0) / f.b
+        # the tip section (an ellipse), shrunk to 0.9 of itself, with a rounded bulge outward
+        th = tc * ch
         bulge = 0.5 * min(ch, 3 * th) * np.sqrt(max(0.0, 1 - p * p)) * np.sqrt(max(0.0, 1 - q * q))
         tip.append(c1 + 0.45 * ch * p * e1 - side * 0.45 * th * q * e2 + bulge * d)
     return layers, np.array(tip).reshape(-1, 3)
@@ -199,7 +245,9 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
         length=0.11 * length,
         chord=lambda t: root_chord * (1 + 0.35 * np.sin(np.pi * min(t, 1) ** 0.8))
         * np.sqrt(max(1 - t**6, 0.04)),
-        thickness=lambda t: 0.012 * length * (1 - 0.55 * t),
+        thickness_ratio=lambda t: (FLIPPER_THICKNESS[0]
+                                   + (FLIPPER_THICKNESS[1] - FLIPPER_THICKNESS[0]) * t
+                                   + FLIPPER_TIP_ROUNDING * t**8),
     )
     # Flukes: swept wings from the sides of the tail stock, span fluke_span * L tip to tip
     ku_ring = n_x - 2 - ka
@@ -217,7 +265,8 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
         length=half_span,
         chord=lambda t: 0.085 * length * (1.0 + 0.25 * np.sin(np.pi * min(t, 1.0)))
         * np.sqrt(max(1 - t**2.2, 0.015)),
-        thickness=lambda t: 0.016 * length * (1 - 0.75 * t),
+        thickness_ratio=lambda t: FLUKE_THICKNESS[0] + (FLUKE_THICKNESS[1]
+                                                       - FLUKE_THICKNESS[0]) * t,
         sweep=lambda t: 0.075 * length * t**1.6,
     )
 

@@ -52,8 +52,9 @@ class Animator:
         self.rest = surf.points
         s = surf.s
         self.tail_base_s = float(s[surf.landmarks["tail_base"]])
-        #: fluke nodes (behind the tail base) move as a hinged gate, not as springs
-        self.fluke = s > self.tail_base_s
+        #: the gate's nodes (behind the tail base, and the joint's ahead of it) move as the
+        #: fluke gate places them, not as springs
+        self.fluke = s > self.tail_base_s - scene.stroke.fluke_joint
         self.dynamic = ~self.fluke
         sp_ = scene.springs
         r = scene.regions

@@ -18,7 +18,7 @@ from adapter.errors import GeometryError
 from adapter.motion.gait import (
     QUARTER_EVENTS,
     SmoothStroke,
-    joint_bend,
+    joint_blend,
     load_fluke_table,
     place_gate,
     ramp,
@@ -59,19 +59,28 @@ class StrokeDrive:
 
     def __init__(self, scene, rest, s, tail_base_s, dynamic, profile, network):
         self.rest, self.dynamic, self.profile = rest, dynamic, profile
-        band = dynamic & (s > tail_base_s - 2 * HINGE_BAND)
-        if band.sum() < 3:
+        joint = scene.stroke.fluke_joint
+        behind = s > tail_base_s
+        # the paper's hinge: the mean of the body nodes just ahead of the tail base
+        paper_band = ~behind & (s > tail_base_s - 2 * HINGE_BAND)
+        # the body's line is taken just ahead of the gate (of the joint, when there is one)
+        band = dynamic & (s > tail_base_s - joint - 2 * HINGE_BAND)
+        if band.sum() < 3 or paper_band.sum() < 3:
             raise GeometryError(
                 "too few body nodes just ahead of the tail base to carry the fluke hinge; "
                 "check geometry.landmarks.tail_base"
             )
         self.hinge_nodes = np.flatnonzero(band)
         self.hinge0 = rest[self.hinge_nodes].mean(axis=0)
+        hinge = rest[paper_band].mean(axis=0)
         self._fluke_nodes = np.flatnonzero(~dynamic)
-        self._fluke_arm = rest[self._fluke_nodes] - self.hinge0
-        #: the share of the fluke angle each fluke node turns by (1: the paper's hinge)
-        self._fluke_bend = joint_bend(s[self._fluke_nodes], tail_base_s,
-                                      scene.stroke.fluke_joint)
+        self._fluke_arm = rest[self._fluke_nodes] - hinge
+        #: per gate node (b, lever): its share of the fluke's turn and its lever on the body
+        #: line's slope (gait.place_gate); b = 1 and lever 0 everywhere for the paper's hinge
+        b = joint_blend(s[self._fluke_nodes], tail_base_s, joint)
+        x_band = self.hinge0[0]
+        lever = (1 - b) * (rest[self._fluke_nodes, 0] - x_band) + b * (hinge[0] - x_band)
+        self._fluke_joint = np.column_stack([b, lever])
         st = scene.stroke
         #: "smooth" (a continuous push along the profile) or "negate" (the paper's events)
         self.reversal = st.reversal
@@ -91,13 +100,13 @@ class StrokeDrive:
         self.tether = (w_t * w_t, 2 * w_t)
         # the paper's stroke has no force, only the gate
         some = moving if self.smooth else _labels(())
-        #: (rest, moving, profile, damping, (k, c), hinge nodes, fluke nodes, arms, hinge0,
-        #: bend): the arrays of the time-aware right-hand side (integrators.Integrator.step)
+        #: (rest, moving, profile, damping, (k, c), hinge nodes, gate nodes, arms, hinge0,
+        #: joint): the arrays of the time-aware right-hand side (integrators.Integrator.step)
         self.stage_arrays = (
             _floats(rest), _labels(some), _floats(profile[moving][: len(some)]),
             _floats(moving_damping[: len(some)]), _floats(self.tether),
             _labels(self.hinge_nodes), _labels(self._fluke_nodes), _floats(self._fluke_arm),
-            _floats(self.hinge0), _floats(self._fluke_bend))
+            _floats(self.hinge0), _floats(self._fluke_joint))
 
     def stage_coefficients(self, t: float, dt: float, stages) -> np.ndarray:
         """(len(stages), 5) rows (G'(s), G(s), D(s), theta(s), theta'(s)) at the stage times
@@ -129,7 +138,7 @@ class StrokeDrive:
         at t."""
         theta, theta_dot = self.fluke_angle(t)
         place_gate(X, V, self.rest, self.hinge_nodes, self._fluke_nodes, self._fluke_arm,
-                   self.hinge0, theta, theta_dot, self._fluke_bend)
+                   self.hinge0, theta, theta_dot, self._fluke_joint)
 
     def event(self, V: np.ndarray, n: int, steps_per_quarter: int) -> None:
         """The stroke's velocity change (in place) on arriving at internal step ``n``.

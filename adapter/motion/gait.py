@@ -258,20 +258,22 @@ def stroke_force(X, V, out, rest, moving, profile, damping, g_dot, g, d, k, c):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_dot, bend):
-    """Place the fluke nodes (in place): shifted with the hinge, then turned.
+def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_dot, joint):
+    """Place the gate's nodes (in place): the fluke turned about the hinge, and the joint ahead
+    of it blended from the body's own motion into that turn.
 
-    The hinge is the mean of ``hinge_nodes``. Fluke node m is placed at
-    ``rest + (hinge - hinge0) + (1 - b) shear + b (R(theta) - I) arm0[m]`` with b =
-    ``bend[m]``: ``(R(theta) - I) arm0`` turns it rigidly about the hinge by the table's angle
-    (R as in :func:`rotation_y`), written so that the flat pose is exactly the rest;
-    ``shear = (0, 0, g x')`` continues the body's own motion behind the tail base, where the
-    spring nodes move vertically with a slope g along the body (the least-squares slope of
-    the hinge nodes' vertical displacement against their rest x; x' the arm's x). Velocities
-    follow the same blend. With ``bend`` 1 on every node (the paper's hinged gate) every fluke
-    node turns rigidly; with a bending joint (:func:`joint_bend`) the fluke root moves as the
-    body does and the table's pitch takes over behind the joint, so the surface has no crease
-    at the tail base.
+    The body's own motion near the tail is a line: every point moves by the mean shift of
+    ``hinge_nodes`` (spring nodes just ahead of the gate) plus a vertical ``g x'``, g the
+    least-squares slope of those nodes' vertical displacement against their rest x and x' the
+    point's rest x less their mean (``hinge0`` is their mean rest position). Gate node m, with ``(b, lever) = joint[m]``, is placed at
+    ``rest + shift + (0, 0, g lever) + b (R(theta) - I) arm0[m]``: ``(R(theta) - I) arm0``
+    turns it rigidly by the table's angle (R as in :func:`rotation_y`, written so that the
+    flat pose is exactly the rest) about the hinge, ``arm0`` being the node's rest position
+    less the hinge's. A fluke node has b = 1 and the lever of the hinge, so the fluke turns
+    rigidly about the hinge as it rides on the body's line; a joint node (:func:`joint_blend`)
+    has b between 0, where it moves as the body does, and 1, and the lever blended alike.
+    With no joint the hinge nodes' mean is the hinge (lever 0): the paper's hinged gate.
+    Velocities are the time derivative of the same expression.
     """
     hx = hy = hz = vx = vy = vz = 0.0
     mx = 0.0
@@ -287,7 +289,7 @@ def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_
     sx, sy, sz = hx / n - hinge0[0], hy / n - hinge0[1], hz / n - hinge0[2]
     vx, vy, vz = vx / n, vy / n, vz / n
     mx /= n
-    # the body's vertical slope at the tail base and its rate
+    # the body's vertical slope there and its rate
     sxx = sxz = sxv = 0.0
     for k in hinge_nodes:
         ex = rest[k, 0] - mx
@@ -298,16 +300,16 @@ def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_
     c, s = np.cos(theta), np.sin(theta)
     for m in range(fluke_nodes.shape[0]):
         i = fluke_nodes[m]
-        b = bend[m]
+        b, lever = joint[m, 0], joint[m, 1]
         ax, az = arm0[m, 0], arm0[m, 2]
         rx = c * ax - s * az
         rz = s * ax + c * az
         X[i, 0] = rest[i, 0] + sx + b * (rx - ax)
         X[i, 1] = rest[i, 1] + sy
-        X[i, 2] = rest[i, 2] + sz + b * (rz - az) + (1.0 - b) * g * ax
+        X[i, 2] = rest[i, 2] + sz + g * lever + b * (rz - az)
         V[i, 0] = vx - b * theta_dot * rz
         V[i, 1] = vy
-        V[i, 2] = vz + b * theta_dot * rx + (1.0 - b) * g_dot * ax
+        V[i, 2] = vz + g_dot * lever + b * theta_dot * rx
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -317,11 +319,11 @@ def drive_place(X, V, drive, coef):
     time, inside the step and not only after it.
 
     ``drive`` is :attr:`~adapter.motion.drive.StrokeDrive.stage_arrays` (rest, moving, profile,
-    damping, (k, c), hinge nodes, fluke nodes, arms, hinge0, bend), ``coef`` the row
+    damping, (k, c), hinge nodes, gate nodes, arms, hinge0, joint), ``coef`` the row
     (G'(t), G(t), D(t), theta(t), theta'(t)) at the stage's time t."""
-    rest, _, _, _, _, hinge, fluke, arm0, hinge0, bend = drive
+    rest, _, _, _, _, hinge, fluke, arm0, hinge0, joint = drive
     if fluke.shape[0] > 0:
-        place_gate(X, V, rest, hinge, fluke, arm0, hinge0, coef[3], coef[4], bend)
+        place_gate(X, V, rest, hinge, fluke, arm0, hinge0, coef[3], coef[4], joint)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -334,13 +336,13 @@ def drive_force(X, V, out, drive, coef):
                  kc[0], kc[1])
 
 
-def joint_bend(s: np.ndarray, tail_base_s: float, joint: float) -> np.ndarray:
-    """How far each fluke node has gone over from the body's own motion to the gate's rigid
-    turn (:func:`place_gate`): 1 everywhere for the paper's hinge (``joint`` = 0); for a
-    bending joint of length ``joint`` (fraction of L) behind the tail base, the quintic
-    :func:`smootherstep` of (s - tail_base) / joint: 0 at the tail base (the fluke root moves
-    as the body does, no crease), 1 behind the joint."""
+def joint_blend(s: np.ndarray, tail_base_s: float, joint: float) -> np.ndarray:
+    """How far each gate node has gone over from the body's own motion to the fluke's rigid
+    turn (the b of :func:`place_gate`): 1 on the fluke (behind the tail base); over a joint of
+    length ``joint`` (fraction of L) ahead of the tail base, the quintic
+    :func:`smootherstep` of ``(s - (tail_base - joint)) / joint``, 0 where the joint meets
+    the spring-driven body (no crease there), 1 at the tail base (none there either)."""
     if joint <= 0:
         return np.ones_like(s)
-    u = np.clip((s - tail_base_s) / joint, 0.0, 1.0)
+    u = np.clip((s - (tail_base_s - joint)) / joint, 0.0, 1.0)
     return u**3 * (10 - 15 * u + 6 * u * u)
