@@ -92,7 +92,7 @@ class Stroke:
     fluke_angle_scale: float = field(default=1.0, metadata={"check": _non_negative})
     #: the fluke angle ramps in from flat over this fraction of the first cycle ("negate")
     fluke_ramp: float = field(default=0.25, metadata={"check": _within(0, 4)})
-    #: a bending joint this long behind the tail base (fraction of L); 0: the paper's hinge
+    #: the fluke's turn blended in over this length ahead of the tail base (L); 0: the hinge
     fluke_joint: float = field(default=0.0, metadata={"check": _within(0, 0.1)})
     #: "smooth" (continuous wall velocity) or "negate" (the paper: velocities negated)
     reversal: str = field(default="smooth", metadata={"choices": ("smooth", "negate")})

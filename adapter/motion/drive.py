@@ -63,8 +63,13 @@ class StrokeDrive:
         behind = s > tail_base_s
         # the paper's hinge: the mean of the body nodes just ahead of the tail base
         paper_band = ~behind & (s > tail_base_s - 2 * HINGE_BAND)
-        # the body's line is taken just ahead of the gate (of the joint, when there is one)
-        band = dynamic & (s > tail_base_s - joint - 2 * HINGE_BAND)
+        # the body's line is taken just ahead of the gate (of the joint, when there is one),
+        # from at least two stations along the body (a coarse whale's rings are far apart)
+        width = 2 * HINGE_BAND
+        band = dynamic & (s > tail_base_s - joint - width)
+        while (band.sum() == 0 or np.ptp(s[band]) < 1e-9) and width < 1.0:
+            width *= 1.5
+            band = dynamic & (s > tail_base_s - joint - width)
         if band.sum() < 3 or paper_band.sum() < 3:
             raise GeometryError(
                 "too few body nodes just ahead of the tail base to carry the fluke hinge; "
