@@ -145,4 +145,4 @@ def test_region_figures_add_up_to_the_totals(tmp_path):
     keys = [key for _, key, _ in COST_ROWS]
     for r in regions.REGIONS:
         assert f"swimming_cost/regions/{r}/power_W" in keys
-        assert f"swimming_cost/regions/{r}/gliding_drag_N" in keys
+        assert f"swimming_cost/regions/{r}" in keys      # the gliding drag, beside its estimate

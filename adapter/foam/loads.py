@@ -85,7 +85,8 @@ def region_figures(swim: dict, glide: dict, period: float, start_up: float,
     """Per body region (the ``<patch>.<region>`` groups of loads.dat): mean Fx and mean power
     over the last whole swimming cycle after ``start_up``, the mean gliding drag over the last
     whole period after the first (the windows of the totals, so the regions add up to them),
-    and the region's area (m2, at the last swimming step). Regions without columns are left
+    with its pressure part and share and its mean side force Fy, and the region's area (m2,
+    at the last swimming step). Regions without columns are left
     out; ``{}`` for a run without regions."""
     out = {}
     for name in names:
@@ -97,10 +98,25 @@ def region_figures(swim: dict, glide: dict, period: float, start_up: float,
                  "power_W": float(st.mean_power[-1]) if len(st.starts) else float("nan"),
                  "area_m2": float(swim[f"{patch}.{name}:A"][-1])}
         if glide and fx in glide:
-            gs = cycle_stats(glide["Time"], glide[fx], glide[power], period, period)
-            entry["gliding_drag_N"] = float(gs.mean_fx[-1]) if len(gs.starts) else float("nan")
+            entry.update(_gliding_parts(glide, f"{patch}.{name}", period))
         out[name] = entry
     return out
+
+
+def _gliding_parts(glide: dict, group: str, period: float) -> dict:
+    """A group's mean gliding drag, its pressure part (and share) and its side force Fy, over
+    the window of the gliding drag (the last whole period after the first)."""
+    def mean(column):
+        if f"{group}:{column}" not in glide:
+            return float("nan")
+        st = cycle_stats(glide["Time"], glide[f"{group}:{column}"], glide[f"{group}:{column}"],
+                         period, period)
+        return float(st.mean_fx[-1]) if len(st.starts) else float("nan")
+
+    drag, pressure = mean("Fx"), mean("Fpx")
+    return {"gliding_drag_N": drag, "gliding_pressure_N": pressure,
+            "gliding_pressure_share": pressure / drag if drag else float("nan"),
+            "gliding_side_force_N": mean("Fy")}
 
 
 def periodic_change(stats: CycleStats, force_scale: float) -> tuple[float, float]:

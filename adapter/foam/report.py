@@ -19,6 +19,7 @@ from pathlib import Path
 
 from adapter.errors import SceneError
 from adapter.foam.case import CASE_RECORD
+from adapter.foam.estimates import plausibility_table
 from adapter.foam.summary import SUMMARY, SUMMARY_ROWS, summary_rows
 from adapter.reports.html_page import Section, write_page
 from adapter.scene import load_scene
@@ -64,7 +65,8 @@ def write_report(case, summary: dict | None = None, rows=None) -> Path:
         summary = json.loads((case / SUMMARY).read_text())
     record_path = case / CASE_RECORD
     record = json.loads(record_path.read_text()) if record_path.is_file() else {}
-    sections = [_headline(summary, rows or SUMMARY_ROWS), _forces(case), _pictures(case),
+    sections = [_headline(summary, rows or SUMMARY_ROWS), _plausibility(summary),
+                _forces(case), _pictures(case),
                 _yplus(summary), _mesh(summary, record), _scene(record), versions_section(case)]
     subtitle = (f"{case.resolve()} · written "
                 f"{datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')} by "
@@ -93,6 +95,19 @@ def _headline(summary: dict, rows) -> Section:
               "the flow (+x, rostrum to tail): a negative mean Fx is net thrust (the stroke's "
               "thrust exceeds the drag; held in the channel, the whale would speed up)."),
         rows=tuple(summary_rows(summary, rows)))
+
+
+def _plausibility(summary: dict) -> Section | None:
+    header, rows, warning = plausibility_table(
+        (summary.get("swimming_cost") or {}).get("regions") or {})
+    if not rows:
+        return None
+    return Section("Gliding drag by region, against an estimate from its size", warning=warning,
+                   header=header, rows=rows, text=(
+                       "Flippers and flukes: ITTC-57 friction at the fin's chord Reynolds number "
+                       "times Hoerner's foil form factor 1 + 2 t/c + 60 (t/c)^4, on its wetted "
+                       "area; body: van der Hoop et al.'s model on the body region's area. "
+                       "Ratio: measured over estimate; a region outside its band is marked."))
 
 
 def _forces(case: Path) -> Section | None:

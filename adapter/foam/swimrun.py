@@ -12,7 +12,8 @@
 From the loads of both (adapter/foam/loads.py): mean drag gliding, mean Fx and power swimming,
 Froude efficiency and cost of transport, with the spike checks and van der Hoop et al.'s
 reference drag; the drag, Fx and power also per body region (body, flippers, flukes:
-``swimming_cost/regions``). Written into ``<case>/adapter-summary.json`` under
+``swimming_cost/regions``), each region's gliding drag beside an estimate from its own size
+(:mod:`adapter.foam.estimates`). Written into ``<case>/adapter-summary.json`` under
 ``"swimming_cost"``, drawn in ``<case>/forces.png`` and put on ``<case>/report.html``
 (:mod:`adapter.foam.report`).
 """
@@ -24,6 +25,7 @@ import shutil
 from pathlib import Path
 
 from adapter.errors import CaseError
+from adapter.foam import estimates as est
 from adapter.foam import loads as ld
 from adapter.foam.case import read_record, write_json
 from adapter.foam.dictionaries import parsed_dict
@@ -177,6 +179,7 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
                                float(rec.get("rho_kg_m3", 1025.0)),
                                float(rec.get("nu_m2_s", 1e-6)))
     gd = ld.read_loads(glide)
+    side = _last_period_mean(gd, "total:Fy", period)
     result = {
         "gliding_drag_N": drag,
         # the split over the window of the drag (the last whole period after the first)
@@ -196,8 +199,13 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
                    "drop_1pct_fx_of_mean_fx": spikes["drop_1pct_fx_N"] / abs(st.mean_fx[-1]),
                    "drop_1pct_power": spikes["drop_1pct_power_W"]
                    / abs(st.mean_power[-1])},
-        # per body region (whale.body, whale.flippers, whale.flukes): same windows
-        "regions": ld.region_figures(data, gd, period, ramp),
+        "gliding_side_force_N": side,
+        "gliding_side_force_of_drag": abs(side) / abs(drag) if drag else float("nan"),
+        # per body region (whale.body, whale.flippers, whale.flukes): same windows; each with
+        # its estimate from its own size (adapter/foam/estimates.py)
+        "regions": est.with_estimates(ld.region_figures(data, gd, period, ramp),
+                                      est.case_estimates(case, rec)),
+        # the model on the whole whale's area (the body region's: regions/body/estimate_N)
         "van_der_hoop": ref,
         "gliding_vs_van_der_hoop": drag / ref["drag_N"] - 1.0,
         "gliding_run": {k: g_summary.get(k) for k in ("steps", "flow_wall_s", "end_time_s",
@@ -229,11 +237,16 @@ COST_ROWS = [
     ("gliding drag", "swimming_cost/gliding_drag_N", "{:.0f} N"),
     ("  pressure part", "swimming_cost/gliding_drag_pressure_N", "{:.0f} N"),
     ("  viscous part", "swimming_cost/gliding_drag_viscous_N", "{:.0f} N"),
-    ("van der Hoop et al. model", "swimming_cost/van_der_hoop/drag_N", "{:.0f} N"),
+    ("gliding: side force Fy", "swimming_cost/gliding_side_force_N", "{:.1f} N"),
+    ("  |Fy| / gliding drag", "swimming_cost/gliding_side_force_of_drag", est.side_force_text),
+    ("van der Hoop et al. model, whole whale's area", "swimming_cost/van_der_hoop/drag_N",
+     "{:.0f} N"),
     ("swimming: mean Fx", "swimming_cost/swimming_mean_fx_N", "{:.0f} N"),
     ("swimming: mean power into the water", "swimming_cost/swimming_mean_power_W", "{:.0f} W"),
     *[row for name in ("body", "flippers", "flukes") for row in (
-        (f"  {name}: gliding drag", f"swimming_cost/regions/{name}/gliding_drag_N", "{:.0f} N"),
+        (f"  {name}: gliding drag", f"swimming_cost/regions/{name}", est.drag_text),
+        (f"  {name}: pressure part", f"swimming_cost/regions/{name}/gliding_pressure_share",
+         "{:.0%}"),
         (f"  {name}: mean power", f"swimming_cost/regions/{name}/power_W", "{:.0f} W"))],
     ("Froude efficiency", "swimming_cost/froude_efficiency", "{:.2f}"),
     ("cost of transport", "swimming_cost/cost_of_transport_J_kg_m", "{:.3g} J/(kg m)"),
