@@ -69,9 +69,10 @@ def smoke_animator(smoke_scene, smoke_surface):
 
 @pytest.fixture()
 def paper_animator(smoke_scene, smoke_surface):
-    """The paper's stroke: velocities negated at the top and bottom, the 15 deg table."""
+    """The paper's stroke: velocities negated at the top and bottom, the 15 deg table, the
+    hinged gate."""
     scene = smoke_scene.replace(stroke={"reversal": "negate", "fluke_table": "quadrature15",
-                                        "velocity_scale": 0.94462})
+                                        "velocity_scale": 0.94462, "fluke_joint": 0.0})
     return Animator(scene, smoke_surface)
 
 

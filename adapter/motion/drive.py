@@ -67,7 +67,7 @@ class StrokeDrive:
         # from at least two stations along the body (a coarse whale's rings are far apart)
         width = 2 * HINGE_BAND
         band = dynamic & (s > tail_base_s - joint - width)
-        while (band.sum() == 0 or np.ptp(s[band]) < 1e-9) and width < 1.0:
+        while joint > 0 and (band.sum() == 0 or np.ptp(s[band]) < 1e-9) and width < 1.0:
             width *= 1.5
             band = dynamic & (s > tail_base_s - joint - width)
         if band.sum() < 3 or paper_band.sum() < 3:

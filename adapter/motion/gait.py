@@ -27,11 +27,12 @@ reversal, and up and down strokes are mirror images.
 The fluke (every node behind the tail base) is not part of the spring system: it is a gate
 hinged at the tail base, shifted with it and rotated by the angle of a table interpolated in
 time: piecewise linearly with ``"negate"``, by a periodic cubic spline (continuous angular
-velocity) with ``"smooth"``. With ``stroke.fluke_joint`` > 0 the gate bends instead of
-folding: the fluke root moves as the body just ahead of it does (the springs move the body
-vertically, with a slope along it), and the gate's rigid turn takes over smoothly along that
-length (:func:`joint_bend`), so the surface, and the mesh layers on it, are not creased at the
-hinge line. The gate is a kinematic constraint: the integrators place it on every stage state
+velocity) with ``"smooth"``. With ``stroke.fluke_joint`` > 0 (the default scene's 0.06) the
+gate also takes the peduncle over that length ahead of the tail base and bends it instead of
+folding it there: a joint node goes over smoothly from the body's own motion (the springs move
+the body vertically, with a slope along it) to the fluke's turn about the hinge
+(:func:`joint_blend`, :func:`place_gate`), so the surface, and the mesh layers on it, are not
+creased. The gate is a kinematic constraint: the integrators place it on every stage state
 at the stage's time (:func:`drive_place`), and the animator after every step.
 """
 
@@ -265,7 +266,8 @@ def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_
     The body's own motion near the tail is a line: every point moves by the mean shift of
     ``hinge_nodes`` (spring nodes just ahead of the gate) plus a vertical ``g x'``, g the
     least-squares slope of those nodes' vertical displacement against their rest x and x' the
-    point's rest x less their mean (``hinge0`` is their mean rest position). Gate node m, with ``(b, lever) = joint[m]``, is placed at
+    point's rest x less their mean (``hinge0`` is their mean rest position). Gate node m,
+    with ``(b, lever) = joint[m]``, is placed at
     ``rest + shift + (0, 0, g lever) + b (R(theta) - I) arm0[m]``: ``(R(theta) - I) arm0``
     turns it rigidly by the table's angle (R as in :func:`rotation_y`, written so that the
     flat pose is exactly the rest) about the hinge, ``arm0`` being the node's rest position
@@ -296,7 +298,8 @@ def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_
         sxx += ex * ex
         sxz += ex * (X[k, 2] - rest[k, 2])
         sxv += ex * V[k, 2]
-    g, g_dot = sxz / sxx, sxv / sxx
+    # one station only (a coarse whale): no slope to take, the line is the shift alone
+    g, g_dot = (sxz / sxx, sxv / sxx) if sxx > 0.0 else (0.0, 0.0)
     c, s = np.cos(theta), np.sin(theta)
     for m in range(fluke_nodes.shape[0]):
         i = fluke_nodes[m]
