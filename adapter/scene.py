@@ -22,12 +22,21 @@ PRESETS = ("default", "smoke", "fine")
 DATA_DIR = Path(__file__).parent / "data"
 
 
-def _within(low, high=math.inf, ends="[]"):
-    """A field's check, low <= v <= high, "(" or ")" in ``ends`` excluding that end."""
-    def check(v):
+class _Within:
+    """A field's check, low <= v <= high, "(" or ")" in ``ends`` excluding that end; ``range``
+    is the interval as the error messages write it."""
+
+    def __init__(self, low: float, high: float, ends: str):
+        self.low, self.high, self.ends = low, high, ends
+        self.range = f"{ends[0]}{low:.10g}, {high:.10g}{ends[1]}".replace("inf]", "inf)")
+
+    def __call__(self, v: float) -> bool:
+        low, high, ends = self.low, self.high, self.ends
         return low <= v <= high and (v != low or ends[0] == "[") and (v != high or ends[1] == "]")
-    check.range = f"{ends[0]}{low:.10g}, {high:.10g}{ends[1]}".replace("inf]", "inf)")  # errors
-    return check
+
+
+def _within(low: float, high: float = math.inf, ends: str = "[]") -> _Within:
+    return _Within(low, high, ends)
 
 
 _positive, _non_negative, _fraction = _within(0, ends="()"), _within(0), _within(0, 1)
@@ -273,7 +282,7 @@ def _convert(value, annotation, path: str, meta: dict):
     elif kind in _EXPECTED:
         if not isinstance(value, kind):
             raise SceneError(f"{path}: expected {_EXPECTED[kind]}, got {_describe(value)}")
-        if kind is dict:
+        if isinstance(value, dict):
             value = {k: _point(v, f"{path}.{k}") for k, v in value.items()}
     elif kind is tuple and meta.get("vector"):
         value = _point(value, path)
