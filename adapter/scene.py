@@ -22,21 +22,12 @@ PRESETS = ("default", "smoke", "fine")
 DATA_DIR = Path(__file__).parent / "data"
 
 
-class _Within:
-    """A field's check, low <= v <= high, "(" or ")" in ``ends`` excluding that end; ``range``
-    is the interval as the error messages write it."""
-
-    def __init__(self, low: float, high: float, ends: str):
-        self.low, self.high, self.ends = low, high, ends
-        self.range = f"{ends[0]}{low:.10g}, {high:.10g}{ends[1]}".replace("inf]", "inf)")
-
-    def __call__(self, v: float) -> bool:
-        low, high, ends = self.low, self.high, self.ends
+def _within(low, high=math.inf, ends="[]"):
+    """A field's check, low <= v <= high, "(" or ")" in ``ends`` excluding that end."""
+    def check(v):
         return low <= v <= high and (v != low or ends[0] == "[") and (v != high or ends[1] == "]")
-
-
-def _within(low: float, high: float = math.inf, ends: str = "[]") -> _Within:
-    return _Within(low, high, ends)
+    check.range = f"{ends[0]}{low:.10g}, {high:.10g}{ends[1]}".replace("inf]", "inf)")  # type: ignore[attr-defined]
+    return check
 
 
 _positive, _non_negative, _fraction = _within(0, ends="()"), _within(0), _within(0, 1)
