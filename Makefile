@@ -3,7 +3,7 @@
 #   make run-case   the main job: pimpleFoam coupled to the step-server (SCENE, CASE, NP)
 #   make study      the flow study: three meshes (GCI), time step, self-propelled speed (SCENE, STUDY, NP)
 #   make test       lint + the whole test suite, OpenFOAM and ParaView included
-#   make typecheck  mypy on adapter/ (not yet part of lint)
+#   make lint       ruff, then mypy on adapter/ (make typecheck: mypy alone)
 #   make test-fast  lint + the tests that need no OpenFOAM, ParaView, chromium or apt (under 90 s)
 #   make dry-run    animate without fluid (SCENE, OUT, CYCLES)
 #   make bench      performance figures (bench-flow: moving against static flow step); make chart: the numerics study
@@ -81,8 +81,9 @@ setup: venv system openfoam plugin paraview-deps chromium-deps
 
 lint: venv
 	$(BIN)/ruff check adapter tests scripts
+	$(BIN)/mypy
 
-# mypy on adapter/ (pyproject's [tool.mypy]); not in lint until it finds no error
+# mypy on adapter/ (pyproject's [tool.mypy]), as make lint runs it
 typecheck: venv
 	$(BIN)/mypy
 

@@ -5,7 +5,7 @@ The repository keeps the template case at ``foam_case/`` and the plugin's build 
 package, as ``adapter/_foam_case/`` and ``adapter/_scripts/build_plugin.sh`` (setup.py's build
 step). They are looked up with :mod:`importlib.resources` first, the repository as the
 fallback (an editable install or ``PYTHONPATH``). The plugin's C++ sources are package data
-(``adapter/foam/plugin/stepServerDisplacement``) in both layouts.
+(``adapter/foam/plugin``) in both layouts.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ TEMPLATE_DIR = _find("_foam_case", "foam_case")
 #: the script that builds the boundary condition library
 BUILD_SCRIPT = _find("_scripts/build_plugin.sh", "scripts/build_plugin.sh")
 #: the boundary condition's C++ sources
-PLUGIN_SRC = PACKAGE_DIR / "foam" / "plugin" / "stepServerDisplacement"
+PLUGIN_SRC = PACKAGE_DIR / "foam" / "plugin"
 
 
 def build_dir() -> Path:

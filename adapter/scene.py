@@ -26,7 +26,7 @@ def _within(low, high=math.inf, ends="[]"):
     """A field's check, low <= v <= high, "(" or ")" in ``ends`` excluding that end."""
     def check(v):
         return low <= v <= high and (v != low or ends[0] == "[") and (v != high or ends[1] == "]")
-    check.range = f"{ends[0]}{low:.10g}, {high:.10g}{ends[1]}".replace("inf]", "inf)")  # errors
+    check.range = f"{ends[0]}{low:.10g}, {high:.10g}{ends[1]}".replace("inf]", "inf)")  # type: ignore[attr-defined]
     return check
 
 
@@ -273,7 +273,7 @@ def _convert(value, annotation, path: str, meta: dict):
     elif kind in _EXPECTED:
         if not isinstance(value, kind):
             raise SceneError(f"{path}: expected {_EXPECTED[kind]}, got {_describe(value)}")
-        if kind is dict:
+        if isinstance(value, dict):
             value = {k: _point(v, f"{path}.{k}") for k, v in value.items()}
     elif kind is tuple and meta.get("vector"):
         value = _point(value, path)

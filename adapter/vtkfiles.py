@@ -91,6 +91,8 @@ def read_pvd(path) -> dict[float, str]:
 
 
 def _number(text: str | None) -> float | None:
+    if text is None:
+        return None
     try:
         return float(text)
     except (TypeError, ValueError):

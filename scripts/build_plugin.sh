@@ -26,12 +26,12 @@ done_msg() { say "$* (total $((SECONDS - t0)) s)"; }
 # wheel (adapter/_scripts/build_plugin.sh, building into ~/.cache/whale-adapter/build, as
 # adapter/resources.py expects). WHALE_BUILD_DIR overrides the build folder in both.
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
-if [ -d "$here/../adapter/foam/plugin/stepServerDisplacement" ]; then
+if [ -f "$here/../adapter/foam/plugin/Make/files" ]; then
     repo=$(cd "$here/.." && pwd)
-    plugin_src=$repo/adapter/foam/plugin/stepServerDisplacement
+    plugin_src=$repo/adapter/foam/plugin
     build=${WHALE_BUILD_DIR:-$repo/build}
 else
-    plugin_src=$(cd "$here/../foam/plugin/stepServerDisplacement" 2>/dev/null && pwd) \
+    plugin_src=$(cd "$here/../foam/plugin" 2>/dev/null && pwd) \
         || die "plugin sources not found next to $here (neither the repository nor an installed wheel)"
     build=${WHALE_BUILD_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/whale-adapter/build}
 fi
@@ -142,7 +142,7 @@ fi
 # --- Which release ----------------------------------------------------------
 # OpenFOAM.com's META-INFO/api-info names the release's API (v1912: api=1912); the releases
 # the plugin knows are the known-apis line of its compatibility header (docs/openfoam-plugin.md)
-known=$(sed -n 's/^ *known-apis: *//p' "$plugin_src/whaleFoamCompat.H")
+known=$(sed -n 's/^ *known-apis: *//p' "$plugin_src/common/whaleFoamCompat.H")
 api=$(sed -n 's/^api=//p' "$WM_PROJECT_DIR/META-INFO/api-info" 2>/dev/null || true)
 patch=$(sed -n 's/^patch=//p' "$WM_PROJECT_DIR/META-INFO/api-info" 2>/dev/null || true)
 if [ -z "$api" ]; then
@@ -157,11 +157,11 @@ fi
 # wmake writes its objects next to Make/, so build from a copy in build/
 work=$build/plugin-src
 mkdir -p "$work" "$libdir"
-rm -rf "$work/stepServerDisplacement"
-cp -r "$plugin_src" "$work/"
+rm -rf "$work/plugin"
+cp -r "$plugin_src" "$work/plugin"
 export FOAM_USER_LIBBIN=$libdir
 say "compiling the plugin (wmake libso)"
-(cd "$work/stepServerDisplacement" && wmake -s libso) > "$build/plugin-build.log" 2>&1 \
+(cd "$work/plugin" && wmake -s libso) > "$build/plugin-build.log" 2>&1 \
     || { tail -n 40 "$build/plugin-build.log" >&2; die "wmake libso failed; full log: $build/plugin-build.log"; }
 [ -f "$so" ] || die "wmake finished but $so is missing; log: $build/plugin-build.log"
 touch "$so"

@@ -16,7 +16,7 @@ say() { echo "check_plugin_compile: [$((SECONDS - t0)) s] $*"; }
 die() { echo "check_plugin_compile: ERROR: $*" >&2; exit 1; }
 
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-plugin=$repo/adapter/foam/plugin/stepServerDisplacement
+plugin=$repo/adapter/foam/plugin
 out=$repo/build/openfoam-check
 mkdir -p "$out"
 
@@ -69,11 +69,11 @@ if [ ! -f "$tree/.lninclude" ]; then
     touch "$tree/.lninclude"
 fi
 
-known=$(sed -n 's/^ *known-apis: *//p' "$plugin/whaleFoamCompat.H")
+known=$(sed -n 's/^ *known-apis: *//p' "$plugin/common/whaleFoamCompat.H")
 if [[ " $known " == *" $api "* ]]; then
-    say "api $api is a release the plugin knows (whaleFoamCompat.H, known-apis: $known)"
+    say "api $api is a release the plugin knows (common/whaleFoamCompat.H, known-apis: $known)"
 else
-    say "api $api is not in whaleFoamCompat.H's known-apis ($known): checking it anyway"
+    say "api $api is not in common/whaleFoamCompat.H's known-apis ($known): checking it anyway"
 fi
 cxx=$(cd "$plugin" && wmake -show-compile-cxx) || die "wmake -show-compile-cxx failed in $tree"
 log=$out/$api-$label.log

@@ -21,7 +21,7 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-PLUGIN = ROOT / "adapter" / "foam" / "plugin" / "stepServerDisplacement"
+PLUGIN = ROOT / "adapter" / "foam" / "plugin" / "client"
 CLIENT = "stepServerClient.C"
 CHANNEL = "stepServerChannel.C"
 STREAM = "stepServerStream.C"

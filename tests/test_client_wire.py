@@ -146,7 +146,7 @@ def request_step(t: float, fp=FP, fv=FV) -> list[str]:
 
 @pytest.fixture(scope="session")
 def harness(tmp_path_factory) -> Path:
-    src = Path(os.environ.get("WHALE_CLIENT_SRC", PLUGIN_SRC))
+    src = Path(os.environ.get("WHALE_CLIENT_SRC", PLUGIN_SRC / "client"))
     exe = tmp_path_factory.mktemp("client-harness") / "stepServerClientHarness"
     cmd = ["g++", *WMAKE_FLAGS, f"-I{src}", str(HARNESS),
            *(str(src / s) for s in CLIENT_SOURCES), "-o", str(exe)]

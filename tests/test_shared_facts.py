@@ -17,8 +17,8 @@ from adapter.coupling import protocol
 from adapter.coupling.protocol import MessageType
 from adapter.resources import PLUGIN_SRC
 
-WIRE_H = "stepServerWire.H"
-ENDPOINT_H = "stepServerEndpoint.H"
+WIRE_H = "client/stepServerWire.H"
+ENDPOINT_H = "client/stepServerEndpoint.H"
 
 
 def _strip_comments(text: str) -> str:
@@ -104,10 +104,11 @@ def test_no_other_literal_of_the_shared_facts_in_the_plugin():
     facts = {protocol.ENDPOINT_NAME, protocol.TOKEN_ENV, protocol.SOCKET_NAME,
              protocol.MAGIC.decode()}
     found = []
-    for path in sorted(PLUGIN_SRC.glob("*.[CH]")):
+    for path in sorted(PLUGIN_SRC.rglob("*.[CH]")):
         code = _strip_comments(path.read_text())
-        found += [f"{path.name}: {f}" for f in facts
-                  if f'"{f}"' in code and path.name not in (WIRE_H, ENDPOINT_H)]
+        rel = path.relative_to(PLUGIN_SRC).as_posix()
+        found += [f"{rel}: {f}" for f in facts
+                  if f'"{f}"' in code and rel not in (WIRE_H, ENDPOINT_H)]
     assert found == []
 
 
@@ -116,7 +117,7 @@ def test_the_plugin_default_density_is_the_scenes():
     alike) is the scene's default water density, and no other code of the plugin writes it."""
     from adapter.scene import Flow
 
-    code = {p.name: _strip_comments(p.read_text()) for p in sorted(PLUGIN_SRC.glob("*.[CH]"))}
+    code = {p.name: _strip_comments(p.read_text()) for p in sorted(PLUGIN_SRC.rglob("*.[CH]"))}
     m = re.search(r"patchLoads::defaultRhoInf\s*=\s*([\d.eE+-]+)\s*;", code["patchLoads.C"])
     assert m and float(m[1]) == Flow().rho_kg_m3
     assert [name for name, text in code.items() if "1025" in text] == ["patchLoads.C"]

@@ -55,12 +55,12 @@ def validate_surface(points: np.ndarray, faces: list, length_scale: float) -> li
                 f"{int(tiny.sum())} triangle(s) of zero area (first {which}); remove them"
             )
     # every edge in exactly two faces
-    directed = []
+    sides = []
     for f in faces:
         k = f.shape[1]
         for c in range(k):
-            directed.append(np.stack([f[:, c], f[:, (c + 1) % k]], axis=1))
-    directed = np.concatenate(directed)
+            sides.append(np.stack([f[:, c], f[:, (c + 1) % k]], axis=1))
+    directed = np.concatenate(sides)
     undirected = np.sort(directed, axis=1)
     uniq, counts = np.unique(undirected, axis=0, return_counts=True)
     if (counts == 1).any():
@@ -93,14 +93,14 @@ def _check_vertex_manifold(faces: list, n: int) -> None:
     """
     from scipy.sparse.csgraph import connected_components
 
-    v, p, q = [], [], []
+    vs, ps, qs = [], [], []
     for f in faces:
         k = f.shape[1]
         for c in range(k):
-            v.append(f[:, c])
-            p.append(f[:, (c - 1) % k])
-            q.append(f[:, (c + 1) % k])
-    v, p, q = np.concatenate(v), np.concatenate(p), np.concatenate(q)
+            vs.append(f[:, c])
+            ps.append(f[:, (c - 1) % k])
+            qs.append(f[:, (c + 1) % k])
+    v, p, q = np.concatenate(vs), np.concatenate(ps), np.concatenate(qs)
     pairs, index = np.unique(np.concatenate([np.stack([v, p], 1), np.stack([v, q], 1)]),
                              axis=0, return_inverse=True)
     index = index.ravel()
@@ -128,7 +128,7 @@ def _orient_outward(points: np.ndarray, faces: list) -> list:
         for k in range(len(poly)):
             a, b = poly[k], poly[(k + 1) % len(poly)]
             edge_faces.setdefault((min(a, b), max(a, b)), []).append(fi)
-    flipped = [None] * len(flat)
+    flipped: list[bool | None] = [None] * len(flat)
     components = 0
     for start in range(len(flat)):
         if flipped[start] is not None:

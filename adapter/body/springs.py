@@ -16,7 +16,7 @@ the readable reference that the tests compare against and the benchmark's baseli
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -78,6 +78,12 @@ class SpringNetwork:
     mu: float
     nu: float
     form: str = "paper"
+    # derived in __post_init__
+    k_on_i: np.ndarray = field(init=False, repr=False, compare=False)
+    k_on_j: np.ndarray = field(init=False, repr=False, compare=False)
+    laplacian: sp.csr_matrix = field(init=False, repr=False, compare=False)
+    _signed: sp.csr_matrix = field(init=False, repr=False, compare=False)
+    _damping: sp.csr_matrix = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         n = len(self.k_node)

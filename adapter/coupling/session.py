@@ -44,7 +44,8 @@ class Session:
         self.send_lock = threading.Lock()
         #: after HELLO: the rank count the link speaks for (information)
         self.n_ranks: int | None = None
-        self.patch = None
+        #: after HELLO: the client's points mapped onto the whale
+        self.patch: PatchMap | None = None
         self.first_request = True
         self.last_t: float | None = None
         self.said_bye = False
@@ -184,6 +185,8 @@ class Session:
             except UnstableError as exc:
                 server.model_failed(str(exc), self, frame.seq)
                 return False
+            if self.patch is None:   # handle() lets only a linked session ask
+                raise WireError(ErrorCode.BAD_FRAME, "REQUEST before HELLO")
             payload = wire.pack_displacement(t, self.patch.apply(served.disp))
             self.last_reply = (t, payload)
         forces = np.concatenate([req.pressure_force, req.viscous_force])

@@ -16,6 +16,7 @@ import math
 import os
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -77,7 +78,7 @@ class StateStore:
 
     def save(self, served) -> None:
         """Save the checkpoint of a served time (``t``, ``ckpt``, ``animator_time``)."""
-        arrays = {f"ckpt:{k}": np.asarray(v) for k, v in served.ckpt.items()}
+        arrays: dict[str, Any] = {f"ckpt:{k}": np.asarray(v) for k, v in served.ckpt.items()}
         arrays.update(format=np.array(STATE_FORMAT), time=np.array(served.t),
                       animator_time=np.array(served.animator_time),
                       dt=np.array(self.dt), fingerprint=np.array(self.fingerprint))

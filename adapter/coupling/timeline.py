@@ -201,7 +201,7 @@ class Timeline:
             self._seek_back(t)
         elif last is None:
             self._jump_from_state(t)
-        if hit and t == ahead.target:
+        if hit and ahead is not None and t == ahead.target:
             disp, vel = ahead.disp, ahead.vel
         else:
             disp = np.array(a.displacement(t), dtype=np.float64)
@@ -213,7 +213,8 @@ class Timeline:
         compute_s = time.perf_counter() - t0
         if hit:
             self.stats.ahead_hits += 1
-        self.stats.advance_s.append(ahead.compute_s + compute_s if hit else compute_s)
+        self.stats.advance_s.append(ahead.compute_s + compute_s
+                                    if hit and ahead is not None else compute_s)
         with self._cache_lock:
             self._served[t] = served
             while len(self._served) > CACHE_SIZE:

@@ -190,7 +190,7 @@ def _scene_text(scene) -> str:
     lines = [f"# {scene.name}"]
     for f in dataclasses.fields(scene):
         value = getattr(scene, f.name)
-        if dataclasses.is_dataclass(value):
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
             lines.append(f"\n[{f.name}]")
             lines += [f"{k} = {json.dumps(v, allow_nan=False)}"   # scene values are finite
                       for k, v in dataclasses.asdict(value).items()]

@@ -131,7 +131,8 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
                              "WHALE_PLUGIN_LIB at a built one)")
     ranks_latest = processor_latest(case)
     from_ranks = ranks_latest is not None and ranks_latest > serial_latest(case)
-    if from_ranks and (ranks == 1 or len(processor_dirs(case)) != ranks):
+    if ranks_latest is not None and from_ranks and (
+            ranks == 1 or len(processor_dirs(case)) != ranks):
         # the latest times are in processor folders of another rank count: reconstruct them
         trim_processor_times(case, ranks_latest)
         run_utility(case, ["reconstructPar", "-newTimes"])
@@ -151,7 +152,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     stopped = None
     watch = LogWatch(case / "log.pimpleFoam")
     try:
-        if ranks > 1 and from_ranks:
+        if ranks > 1 and from_ranks and ranks_latest is not None:
             # resume from the ranks' own latest time (a crash left it only there)
             trim_processor_times(case, ranks_latest)
         elif ranks > 1:
@@ -197,7 +198,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     write_json(case / SUMMARY, summary)
     if before:
         raise SolverRunError(f"{stopped}; see {case / SUMMARY}\nWhat to do: {MOTION_ADVICE}\n"
-                             "OpenFOAM's message:\n    " + fatal.replace("\n", "\n    ")
+                             "OpenFOAM's message:\n    " + (fatal or "").replace("\n", "\n    ")
                              + f"\n(see {case / 'log.pimpleFoam'})")
     if stopped:
         raise SolverRunError(f"{stopped}; the run stopped at t = {summary['end_time_s']:.4g} s "

@@ -8,6 +8,7 @@ import json
 import math
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -95,7 +96,7 @@ def summarise(case: Path, watch: LogWatch, record: dict, ranks: int, flow_wall: 
 
 #: the rows of :func:`format_summary`: (label, key of the summary (a/b for nested), format);
 #: the format is a str.format spec with the unit, or a callable value -> str
-SUMMARY_ROWS = [
+SUMMARY_ROWS: list[tuple[str, str, Any]] = [
     ("case", "case", "{}"),
     ("preset", "preset", "{}"),
     ("static whale", "static_whale", lambda v: "yes" if v else "no"),
@@ -137,7 +138,7 @@ def summary_rows(summary: dict, rows=None) -> list[tuple[str, str]]:
     and the report's tables."""
     lines = []
     for label, key, fmt in rows or SUMMARY_ROWS:
-        value = summary
+        value: Any = summary
         for part in key.split("/"):
             value = value.get(part) if isinstance(value, dict) else None
         if value is None:

@@ -11,6 +11,7 @@ quarter strokes (:meth:`StrokeDrive.event`). The animator owns one.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -34,6 +35,42 @@ def _floats(a) -> np.ndarray:
 def _labels(a) -> np.ndarray:
     """A contiguous int64 array: the numba kernels' type for node labels."""
     return np.ascontiguousarray(a, dtype=np.int64)
+
+
+class DriveArrays(NamedTuple):
+    """The arrays of the time-aware right-hand side, the ``drive`` of every compiled kernel
+    (adapter.motion.kernels) and of gait.drive_place / gait.drive_force, which unpack it in
+    this order (numba takes a named tuple as a tuple). M moving nodes (none for the paper's
+    stroke, which has no force), F fluke nodes."""
+
+    #: (N, 3) rest positions (m)
+    rest: np.ndarray
+    #: (M,) int64, the nodes the smooth stroke pushes and tethers
+    moving: np.ndarray
+    #: (M,) their velocity profile (m/s, gait.velocity_profile)
+    profile: np.ndarray
+    #: (M,) the network's damping force on the profile, which the push cancels
+    damping: np.ndarray
+    #: (2,) the tether's (k, c): stiffness (1/s2) and damping (1/s) on every moving node
+    tether: np.ndarray
+    #: (H,) int64, the spring nodes just ahead of the gate whose motion is the body's line
+    hinge_nodes: np.ndarray
+    #: (F,) int64, the fluke gate's nodes (the fluke, and the joint ahead of it)
+    fluke_nodes: np.ndarray
+    #: (F, 3) their arms from the paper's hinge at rest (m)
+    arm0: np.ndarray
+    #: (3,) the hinge nodes' mean at rest (m)
+    hinge0: np.ndarray
+    #: (F, 2) per gate node (b, lever): its share of the fluke's turn and its lever on the
+    #: body line's slope (gait.place_gate); (1, 0) everywhere for the paper's hinge
+    joint: np.ndarray
+
+    @classmethod
+    def none(cls) -> DriveArrays:
+        """The drive of a free network: no stroke force, no kinematic nodes."""
+        nodes, values = np.zeros(0, dtype=np.int64), np.zeros(0)
+        return cls(np.zeros((0, 3)), nodes, values, values, np.zeros(2), nodes, nodes,
+                   np.zeros((0, 3)), np.zeros(3), values)
 
 
 #: half-width (fraction of L) of the band of body nodes just ahead of the tail base whose
@@ -105,9 +142,8 @@ class StrokeDrive:
         self.tether = (w_t * w_t, 2 * w_t)
         # the paper's stroke has no force, only the gate
         some = moving if self.smooth else _labels(())
-        #: (rest, moving, profile, damping, (k, c), hinge nodes, gate nodes, arms, hinge0,
-        #: joint): the arrays of the time-aware right-hand side (integrators.Integrator.step)
-        self.stage_arrays = (
+        #: the arrays of the time-aware right-hand side (integrators.Integrator.step)
+        self.stage_arrays = DriveArrays(
             _floats(rest), _labels(some), _floats(profile[moving][: len(some)]),
             _floats(moving_damping[: len(some)]), _floats(self.tether),
             _labels(self.hinge_nodes), _labels(self._fluke_nodes), _floats(self._fluke_arm),

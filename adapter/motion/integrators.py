@@ -2,15 +2,9 @@
 
 The base class :class:`Integrator` owns the step size, the step count and the status, checks
 every new state, and refuses to step once it has failed; each method implements only
-``_step``. :data:`METHODS` maps the names a scene file uses to the classes.
-
-The facts of each method are written once, as class attributes: ``name``, ``order``,
-``stages`` (the times of its right-hand-side evaluations within a step), ``force_calls`` per
-step, ``step_cost`` (the work of a step in force evaluations), ``explicit``,
-``omega_dt_limit`` (its stability limit on an undamped oscillator) and ``step_rule`` (one
-step in a line). The stability analysis, the studies and the docs read them from there;
-:func:`method_table` writes them as the table in docs/numerics.md (a test keeps the two the
-same).
+``_step`` and states its facts as class attributes, which the stability analysis, the studies
+and docs/numerics.md (:func:`method_table`) read (the contract: :class:`Integrator`,
+"Implementing a method"). :data:`METHODS` maps the names a scene file uses to the classes.
 
 Velocity Verlet with a velocity-dependent force: with a0 = F(X, V),
 ``Vh = V + dt/2 a0``, ``X' = X + dt Vh``, ``a1 = F(X', Vh + dt/2 a0)`` (the velocity at the
@@ -23,9 +17,8 @@ Backward Euler: with J_x = dF/dX and J_v = dF/dV at (X, V),
 ``(I - dt J_v - dt^2 J_x) dV = dt (F + dt J_x V)``, ``V' = V + dV``, ``X' = X + dt V'``: one
 sparse LU solve per step (scipy.sparse.linalg.splu; the paper's force is not symmetric).
 
-When the integrator is given the :class:`~adapter.body.springs.SpringNetwork` (``network=``) and
-its force is that network's, each explicit step runs as one compiled pass (numba): the force
-kernel fused with the update and the check, no temporary arrays beyond the two returned.
+Given the :class:`~adapter.body.springs.SpringNetwork` (``network=``) whose force it is, each
+explicit step runs as one compiled pass (numba), no temporary arrays beyond the two returned.
 
 Time-aware right-hand side. ``step(X, V, t, drive=...)`` integrates
 dV/dt = F(X, V) + F_drive(t, X, V) with the constraint of the drive's kinematic nodes: at every
@@ -37,12 +30,13 @@ gait.drive_force), inside the compiled kernels too. Applied instead once per ste
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, ClassVar
 
 import numpy as np
 
 from adapter.body.springs import damping_matrix, force_jacobian
 from adapter.errors import IntegratorError, UnstableError
+from adapter.motion.drive import DriveArrays
 from adapter.motion.gait import drive_force, drive_place
 from adapter.motion.kernels import (
     NO_COEF,
@@ -75,6 +69,16 @@ class Integrator:
         enables the compiled steps, and is required by ``backward_euler`` (its Jacobian).
     reuse_buffers : let the compiled steps write into three array sets in turn instead of new
         arrays (a returned state is overwritten three steps later).
+
+    Implementing a method
+    ---------------------
+    Subclass, set the facts (the class attributes below) and implement the one hook,
+    ``_step(X, V, dt) -> (X1, V1)``: the new state as new arrays of any shape (the stability
+    analysis steps a scalar oscillator), unchecked and uncounted (:meth:`step` checks and
+    counts), the right-hand side taken only from ``self._f(X, V, s)`` at stage ``s`` of
+    ``stages``. ``kernel`` (and ``checked_kernel``, fused with the check) may name the same
+    step compiled (adapter.motion.kernels); :meth:`step` runs it instead of ``_step`` when the
+    force is the network's. It is data, not a second hook: the same step to round-off.
     """
 
     #: the name a scene file uses (integrator.method), the key of :data:`METHODS`
@@ -82,7 +86,7 @@ class Integrator:
     #: the order of accuracy
     order = 0
     #: the times of the right-hand side's evaluations within a step, in steps from its start
-    stages = (0.0,)
+    stages: ClassVar[tuple[float, ...]] = (0.0,)
     #: force evaluations per step (the work of one step, for the charts)
     force_calls = 1
     #: the relative cost of one step, in force evaluations (the chooser's measure)
@@ -94,8 +98,10 @@ class Integrator:
     omega_dt_limit = 0.0
     #: one step, in a line (the docs' table)
     step_rule = ""
-    #: a compiled step fused with the check (returns the largest deviation), where there is one
-    _checked_kernel = None
+    #: the step compiled, where there is one (see "Implementing a method")
+    kernel: ClassVar[Callable | None] = None
+    #: the compiled step fused with the check (returns the largest deviation)
+    checked_kernel: ClassVar[Callable | None] = None
 
     def __init__(self, force: Force, dt: float, runaway: float | None = None,
                  reference: np.ndarray | None = None, stable_dt: float | None = None,
@@ -113,11 +119,12 @@ class Integrator:
         #: with ``reuse_buffers`` a compiled step writes into three array sets in turn: a
         #: returned state stays valid for two more steps (enough for the animator, which keeps
         #: the current and the previous step and copies what it hands out)
-        self._buffers = [] if reuse_buffers else None
+        self._buffers: list | None = [] if reuse_buffers else None
         self._turn = 0
         self._kernel_args = None
         #: the drive of the step under way (its arrays and coefficients; None: none)
-        self._drive, self._coef = None, NO_COEF
+        self._drive: DriveArrays | None = None
+        self._coef = NO_COEF
         if network is not None and _same_force(force, network):
             net = network
             self._kernel_args = (net.i, net.j, net.rest, net.k_on_i, net.k_on_j,
@@ -148,16 +155,16 @@ class Integrator:
         else:
             drv = self._drive = drive.stage_arrays
             self._coef = drive.stage_coefficients(t, h, self.stages)
-        if self._kernel_args is not None and hasattr(self, "_kernel"):
+        kernel, checked = type(self).kernel, type(self).checked_kernel
+        if self._kernel_args is not None and kernel is not None:
             X1, V1 = self._outputs(X, V)
-            if self._checked_kernel is not None and self.reference is not None:
+            if checked is not None and self.reference is not None:
                 # the paper's method on the hot path: step and check in one pass
-                dev = self._checked_kernel(X, V, *self._kernel_args, h, X1, V1,
-                                           self.reference, drv, self._coef)
+                dev = checked(X, V, *self._kernel_args, h, X1, V1, self.reference, drv, self._coef)
                 self.n_steps += 1
                 self._verdict(dev)
                 return X1, V1
-            type(self)._kernel(X, V, *self._kernel_args, h, X1, V1, drv, self._coef)
+            kernel(X, V, *self._kernel_args, h, X1, V1, drv, self._coef)
         else:
             X1, V1 = self._step(X, V, h)
         self.n_steps += 1
@@ -228,6 +235,7 @@ class Integrator:
         return F
 
     def _step(self, X, V, dt):
+        """The method's step (the one hook; see "Implementing a method")."""
         raise NotImplementedError
 
 
@@ -243,8 +251,8 @@ class ForwardEuler(Integrator):
     name = "forward_euler"
     order = 1
     step_rule = "X' = X + dt V,  V' = V + dt F(X, V)  (the paper's)"
-    _kernel = fe_kernel
-    _checked_kernel = staticmethod(fe_checked)
+    kernel = fe_kernel
+    checked_kernel = fe_checked
 
     def _step(self, X, V, dt):
         F = self._f(X, V, 0)
@@ -258,7 +266,7 @@ class SymplecticEuler(Integrator):
     order = 1
     omega_dt_limit = 2.0
     step_rule = "V' = V + dt F(X, V),  X' = X + dt V'"
-    _kernel = se_kernel
+    kernel = se_kernel
 
     def _step(self, X, V, dt):
         V1 = V + dt * self._f(X, V, 0)
@@ -274,7 +282,7 @@ class Verlet(Integrator):
     force_calls = step_cost = 2
     omega_dt_limit = 2.0
     step_rule = "velocity Verlet, damping by a velocity predictor"
-    _kernel = verlet_kernel
+    kernel = verlet_kernel
 
     def _step(self, X, V, dt):
         a0 = self._f(X, V, 0)
@@ -293,7 +301,7 @@ class RK4(Integrator):
     force_calls = step_cost = 4
     omega_dt_limit = 2.828
     step_rule = "classical Runge-Kutta on (X, V)"
-    _kernel = rk4_kernel
+    kernel = rk4_kernel
 
     def _step(self, X, V, dt):
         f = self._f
@@ -309,10 +317,8 @@ class RK4(Integrator):
 
 
 class BackwardEuler(Integrator):
-    """Linearised backward Euler (Baraff & Witkin 1998): one sparse solve per step.
-
-    Needs ``network=`` for the Jacobian of the spring force
-    (:func:`~adapter.body.springs.force_jacobian`).
+    """Linearised backward Euler (Baraff & Witkin 1998): one sparse solve per step; needs
+    ``network=`` for the spring force's Jacobian (:func:`~adapter.body.springs.force_jacobian`).
     """
 
     name = "backward_euler"
@@ -332,7 +338,7 @@ class BackwardEuler(Integrator):
                              "make_integrator(..., network=net)")
         self._c = damping_matrix(self.network)  # C = -dF/dV, constant
         self._eye = None
-        self._tether = None
+        self._tether: tuple[np.ndarray, object] | None = None
 
     def _step(self, X, V, dt):
         import scipy.sparse as sp
@@ -346,9 +352,9 @@ class BackwardEuler(Integrator):
         F = self._f(X, V, 0).ravel()
         v = V.ravel()
         c, kx = self._c, jx
-        if self._drive is not None and len(self._drive[1]):
+        if self._drive is not None and len(self._drive.moving):
             # the tether is stiffness and damping on the moving nodes: implicit too
-            moving, (k_t, c_t) = self._drive[1], self._drive[4]
+            moving, (k_t, c_t) = self._drive.moving, self._drive.tether
             if self._tether is None or self._tether[0] is not moving:
                 on = np.zeros(n)
                 on[(3 * moving[:, None] + np.arange(3)).ravel()] = 1.0
@@ -367,11 +373,8 @@ METHODS: dict[str, type[Integrator]] = {
 
 
 def make_integrator(name: str, force: Force, dt: float, **kwargs) -> Integrator:
-    """The integrator called ``name`` (a key of :data:`METHODS`).
-
-    Keyword arguments go to :class:`Integrator` (``runaway``, ``reference``, ``stable_dt``,
-    ``network``).
-    """
+    """The integrator called ``name`` (a key of :data:`METHODS`); keyword arguments go to
+    :class:`Integrator` (``runaway``, ``reference``, ``stable_dt``, ``network``)."""
     try:
         cls = METHODS[name]
     except KeyError:

@@ -5,7 +5,8 @@ every stage's own time: gait.drive_force, gait.drive_place).
 
 Every kernel has the same signature, ``(X, V, i, j, rest, ki, kj, mu, nu, dt, X1, V1, drive,
 coef)``: the state (N, 3), the network's edge arrays and damping, the step, the (N, 3) outputs
-written in place, the drive's arrays (:data:`NO_DRIVE` for none) and its coefficients per stage
+written in place, the drive's arrays (:class:`~adapter.motion.drive.DriveArrays`,
+:data:`NO_DRIVE` for none) and its coefficients per stage
 (one row per stage of the method, :data:`NO_COEF` for none). :mod:`adapter.motion.integrators`
 holds the family that calls them.
 """
@@ -16,6 +17,7 @@ import numba
 import numpy as np
 
 from adapter.body.springs import edge_forces
+from adapter.motion.drive import DriveArrays
 from adapter.motion.gait import drive_force, drive_place
 
 
@@ -140,9 +142,6 @@ def deviation(X, V, ref):  # pragma: no cover - compiled
     return m
 
 
-#: the drive of a free network (no stroke force, no kinematic nodes), in the layout of
-#: :attr:`~adapter.motion.drive.StrokeDrive.stage_arrays`
-NO_DRIVE = (np.zeros((0, 3)), np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0),
-             np.zeros(2), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64),
-             np.zeros((0, 3)), np.zeros(3), np.zeros(0))
+#: the drive of a free network (no stroke force, no kinematic nodes)
+NO_DRIVE = DriveArrays.none()
 NO_COEF = np.zeros((4, 5))

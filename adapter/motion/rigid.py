@@ -61,12 +61,13 @@ class RigidLaw:
 
     def translation(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(x, x', x'') of the translation at t (m, m/s, m/s2)."""
-        s = self._wave(t, self.phase_x)
-        return tuple(v * self.amplitude for v in s)
+        x, v, a = self._wave(t, self.phase_x)
+        return x * self.amplitude, v * self.amplitude, a * self.amplitude
 
     def angle(self, t: float) -> tuple[float, float, float]:
         """(theta, theta', theta'') of the turn at t (rad, rad/s, rad/s2)."""
-        return tuple(v * self.theta0 for v in self._wave(t, self.phase_theta))
+        th, w, dw = self._wave(t, self.phase_theta)
+        return th * self.theta0, w * self.theta0, dw * self.theta0
 
     def displacement(self, points: np.ndarray, t: float) -> np.ndarray:
         """(N, 3) displacement at t of the body's points at rest ``points``."""

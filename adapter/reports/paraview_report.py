@@ -56,8 +56,8 @@ _X_RETRIES = 3
 def find_paraview() -> tuple[str, str]:
     """Paths of ``xvfb-run`` and ``pvbatch``; :class:`ParaViewError` naming the fix if absent."""
     pvbatch, xvfb = shutil.which("pvbatch"), shutil.which("xvfb-run")
-    missing = [name for name, path in (("pvbatch", pvbatch), ("xvfb-run", xvfb)) if not path]
-    if missing:
+    if pvbatch is None or xvfb is None:
+        missing = [name for name, path in (("pvbatch", pvbatch), ("xvfb-run", xvfb)) if not path]
         raise ParaViewError(
             f"{' and '.join(missing)} not found: install ParaView and Xvfb with "
             "`make paraview-deps` (scripts/install_paraview.sh, Debian packages paraview "
@@ -205,6 +205,7 @@ def _run_streaming(cmd: list, log, stream, cwd: Path) -> tuple[int, list, bool]:
                             env=pvbatch_env(), cwd=cwd)
     tail: list = []
     x_failed = False
+    assert proc.stdout is not None    # stdout=PIPE
     for line in proc.stdout:
         log.write(line)
         tail = (tail + [line.rstrip()])[-25:]

@@ -7,8 +7,12 @@ Both draw off screen: no display is needed (pyvista falls back to EGL or OSMesa)
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from pyvista.plotting._typing import ScalarBarArgs
 
 
 def plot_keypoints(kp: np.ndarray, names, period: float, path: Path) -> None:
@@ -35,8 +39,9 @@ def plot_keypoints(kp: np.ndarray, names, period: float, path: Path) -> None:
 
 #: the colour bar of frames.png (in its viewport's coordinates): the tick labels at a fixed
 #: size and two decimals; its title is drawn as a text above the bar's box (render_frames)
-_BAR = {"title": "displacement (m)", "vertical": False, "position_x": 0.08, "position_y": 0.03,
-        "width": 0.84, "height": 0.14, "label_font_size": 13, "n_labels": 4, "fmt": "%.2f"}
+_BAR: ScalarBarArgs = {
+    "title": "displacement (m)", "vertical": False, "position_x": 0.08, "position_y": 0.03,
+    "width": 0.84, "height": 0.14, "label_font_size": 13, "n_labels": 4, "fmt": "%.2f"}
 
 
 def render_frames(surf, states: dict, path: Path, size=(1800, 820)) -> None:

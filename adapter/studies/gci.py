@@ -22,6 +22,7 @@ them from |R| (Celik's procedure), flagged by ``convergence``.
 from __future__ import annotations
 
 import math
+import typing
 
 #: Roache's safety factor for three or more meshes
 SAFETY = 1.25
@@ -79,10 +80,11 @@ def gci(f1: float, f2: float, f3: float, r21: float, r32: float | None = None,
     value)."""
     r32 = r21 if r32 is None else r32
     kind, ratio = convergence_type(f1, f2, f3)
-    out = {"values": [f1, f2, f3], "r21": r21, "r32": r32, "e21": f2 - f1, "e32": f3 - f2,
-           "ratio": None if not math.isfinite(ratio) else ratio, "convergence": kind,
-           "p": None, "extrapolated": None, "e_a": None, "e_ext": None, "gci_fine": None,
-           "gci_fine_abs": None, "gci_coarse": None, "safety": safety}
+    out: dict[str, typing.Any] = {
+        "values": [f1, f2, f3], "r21": r21, "r32": r32, "e21": f2 - f1, "e32": f3 - f2,
+        "ratio": None if not math.isfinite(ratio) else ratio, "convergence": kind,
+        "p": None, "extrapolated": None, "e_a": None, "e_ext": None, "gci_fine": None,
+        "gci_fine_abs": None, "gci_coarse": None, "safety": safety}
     if kind == "converged":
         out.update(extrapolated=f1, gci_fine=0.0, gci_fine_abs=0.0, e_a=0.0, e_ext=0.0)
         return out

@@ -112,12 +112,12 @@ def perturbation_growth(a, method: str, dt: float, n_steps: int | None = None,
                 d.append((np.linalg.norm(K @ dX), np.linalg.norm(K @ dV)))
     except UnstableError:
         return np.inf
-    d = np.array(d)
-    if not np.isfinite(d).all():
+    errs = np.array(d)
+    if not np.isfinite(errs).all():
         return np.inf
-    half = max(2, len(d) // 2)
-    fast = (d.max(axis=0) / (1e3 * np.maximum(d[0], 1e-300))).max()
-    slow = (d[-1] / np.maximum(d[1:half].max(axis=0), 1e-300)).max()
+    half = max(2, len(errs) // 2)
+    fast = (errs.max(axis=0) / (1e3 * np.maximum(errs[0], 1e-300))).max()
+    slow = (errs[-1] / np.maximum(errs[1:half].max(axis=0), 1e-300)).max()
     return float(max(fast, slow))
 
 

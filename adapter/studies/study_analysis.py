@@ -92,7 +92,7 @@ def mesh_study(meshes: dict) -> dict:
     for key, _, label in FIGURES:
         f = [meshes[k][key] for k in (1, 2, 3)]
         if all(v is not None for v in f):
-            gs[key] = G.gci(*f, r21, r32)
+            gs[key] = G.gci(f[0], f[1], f[2], r21, r32)
             gs[key]["label"] = label
     # the best value of each figure: extrapolated when the three converge monotonically; the
     # finest mesh's otherwise (an oscillating or diverging sequence gives no trustworthy

@@ -101,7 +101,7 @@ def format_check(c: Check) -> str:
     unit = f" {c.unit}" if c.unit else ""
     if not c.judged:
         return f"    {c.name:<44} {c.measured:>12.5g}{unit}"
-    err = c.error
+    err = c.error or 0.0    # judged: it has a reference, so an error
     err_s = f"{err:+.3g}{unit}" if c.absolute else f"{100 * err:+.2f} %"
     tol_s = f"{c.tolerance:g}{unit}" if c.absolute else f"{100 * c.tolerance:g} %"
     verdict = "pass" if c.passed else "FAIL"

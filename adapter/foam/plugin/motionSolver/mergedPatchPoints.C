@@ -1,0 +1,116 @@
+/*---------------------------------------------------------------------------*\
+    whale-adapter: one patch's points of all ranks, merged
+    (see mergedPatchPoints.H)
+\*---------------------------------------------------------------------------*/
+
+#include "mergedPatchPoints.H"
+#include "DynamicList.H"
+#include "Pstream.H"
+#include <algorithm>
+#include <numeric>
+
+// * * * * * * * * * * * * * * * * Constructors  * * * * * * * * * * * * * * //
+
+Foam::mergedPatchPoints::mergedPatchPoints(const pointField& mine) :
+    slots_(Pstream::nProcs()),
+    points_(),
+    nGathered_(0)
+{
+    // Every rank's patch points, undeformed
+    List<pointField> allPts(Pstream::nProcs());
+    allPts[Pstream::myProcNo()] = mine;
+    Pstream::gatherList(allPts);
+    Pstream::scatterList(allPts);
+
+    label nAll = 0;
+    forAll(allPts, proci)
+    {
+        nAll += allPts[proci].size();
+    }
+    pointField all(nAll);
+    {
+        label k = 0;
+        forAll(allPts, proci)
+        {
+            for (const point& x : allPts[proci])
+            {
+                all[k++] = x;
+            }
+        }
+    }
+    nGathered_ = nAll;
+
+    // Sort lexicographically, merge exact duplicates: independent of the
+    // decomposition
+    labelList order(nAll);
+    std::iota(order.begin(), order.end(), 0);
+    auto less = [&all](label a, label b)
+    {
+        const point& pa = all[a];
+        const point& pb = all[b];
+        if (pa.x() != pb.x()) return pa.x() < pb.x();
+        if (pa.y() != pb.y()) return pa.y() < pb.y();
+        return pa.z() < pb.z();
+    };
+    std::stable_sort(order.begin(), order.end(), less);
+
+    labelList slotOf(nAll);
+    DynamicList<point> merged(nAll);
+    forAll(order, i)
+    {
+        const label a = order[i];
+        if (i == 0 || all[a] != all[order[i - 1]])
+        {
+            merged.append(all[a]);
+        }
+        slotOf[a] = merged.size() - 1;
+    }
+    points_.transfer(merged);
+
+    {
+        label k = 0;
+        forAll(allPts, proci)
+        {
+            slots_[proci].setSize(allPts[proci].size());
+            forAll(allPts[proci], i)
+            {
+                slots_[proci][i] = slotOf[k++];
+            }
+        }
+    }
+}
+
+
+// * * * * * * * * * * * * * * * Member Functions  * * * * * * * * * * * * * //
+
+Foam::tmp<Foam::vectorField> Foam::mergedPatchPoints::merge(
+    const vectorField& mine
+) const
+{
+    List<vectorField> allD(Pstream::nProcs());
+    allD[Pstream::myProcNo()] = mine;
+    Pstream::gatherList(allD);
+    Pstream::scatterList(allD);
+
+    tmp<vectorField> td(new vectorField(points_.size(), Zero));
+    vectorField& d = td.ref();
+    forAll(allD, proci)
+    {
+        const labelList& slots = slots_[proci];
+        if (allD[proci].size() != slots.size())
+        {
+            FatalErrorInFunction
+                << "rank " << proci << " sent " << allD[proci].size()
+                << " patch displacements, expected " << slots.size()
+                << exit(FatalError);
+        }
+        forAll(slots, i)
+        {
+            d[slots[i]] = allD[proci][i];
+        }
+    }
+    return td;
+}
+
+
+// ************************************************************************* //

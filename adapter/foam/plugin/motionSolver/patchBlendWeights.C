@@ -1,0 +1,152 @@
+/*---------------------------------------------------------------------------*\
+    whale-adapter: the blending weights of whaleBlendedDisplacement
+    (see patchBlendWeights.H)
+\*---------------------------------------------------------------------------*/
+
+#include "patchBlendWeights.H"
+#include "pointKdTree.H"
+#include "DynamicList.H"
+#include "UIndirectList.H"
+#include <algorithm>
+
+namespace
+{
+//- Quintic smoothstep: 0 at s <= 0, 1 at s >= 1, C2
+Foam::scalar smoothstep5(Foam::scalar s)
+{
+    s = std::min(std::max(s, Foam::scalar(0)), Foam::scalar(1));
+    return s * s * s * (10 - 15 * s + 6 * s * s);
+}
+}
+
+
+// * * * * * * * * * * * * * * * * Constructors  * * * * * * * * * * * * * * //
+
+Foam::patchBlendWeights::patchBlendWeights(
+    const pointField& p0,
+    const labelList& meshPoints,
+    const pointKdTree& tree,
+    const label K,
+    const scalar power,
+    const scalar innerDistance,
+    const scalar outerDistance,
+    const scalar rotationDistance
+)
+{
+    boolList onPatch(p0.size(), false);
+    UIndirectList<bool>(onPatch, meshPoints) = true;
+
+    DynamicList<label> blendPoints(p0.size());
+    DynamicList<label> offsets(p0.size() + 1);
+    DynamicList<label> sources(p0.size() * K);
+    DynamicList<scalar> weights(p0.size() * K);
+    DynamicList<scalar> psi(p0.size());
+    offsets.append(0);
+
+    std::vector<std::pair<scalar, label>> nearest;
+    const scalar R2 = sqr(outerDistance);
+    std::vector<scalar> w(K + 1);
+
+    forAll(p0, pointi)
+    {
+        if (onPatch[pointi])
+        {
+            continue;
+        }
+        tree.knn(p0[pointi], K + 1, nearest);
+        const scalar r1sqr = nearest[0].first;
+        if (r1sqr >= R2)
+        {
+            continue;
+        }
+        const scalar r1 = Foam::sqrt(r1sqr);
+        const scalar phi =
+            smoothstep5((outerDistance - r1) / (outerDistance - innerDistance));
+        if (phi <= 0)
+        {
+            continue;
+        }
+
+        const scalar rLast = Foam::sqrt(nearest[K].first);
+        const scalar cut = Foam::pow(rLast, -power);
+        scalar sumW = 0;
+        for (label j = 0; j < K; ++j)
+        {
+            const scalar r = Foam::sqrt(nearest[j].first);
+            w[j] = (r > 0 ? Foam::pow(r, -power) - cut : GREAT);
+            sumW += w[j];
+        }
+        if (!(sumW > 0))
+        {
+            // All K + 1 equally far: plain average
+            for (label j = 0; j < K; ++j)
+            {
+                w[j] = 1;
+            }
+            sumW = K;
+        }
+
+        blendPoints.append(pointi);
+        for (label j = 0; j < K; ++j)
+        {
+            if (w[j] > 0)
+            {
+                sources.append(nearest[j].second);
+                weights.append(phi * w[j] / sumW);
+            }
+        }
+        offsets.append(sources.size());
+        psi.append(smoothstep5(
+            (rotationDistance - r1) / (rotationDistance - innerDistance)
+        ));
+    }
+
+    points_.transfer(blendPoints);
+    offsets_.transfer(offsets);
+    sources_.transfer(sources);
+    weights_.transfer(weights);
+    psi_.transfer(psi);
+}
+
+
+// * * * * * * * * * * * * * * * Member Functions  * * * * * * * * * * * * * //
+
+void Foam::patchBlendWeights::apply(const vectorField& d, vectorField& pd) const
+{
+    forAll(points_, i)
+    {
+        vector sum(Zero);
+        for (label k = offsets_[i]; k < offsets_[i + 1]; ++k)
+        {
+            sum += weights_[k] * d[sources_[k]];
+        }
+        pd[points_[i]] = sum;
+    }
+}
+
+
+void Foam::patchBlendWeights::apply(
+    const vectorField& d,
+    const tensorField& Rm,
+    const pointField& p0,
+    const pointField& patchPoints0,
+    vectorField& pd
+) const
+{
+    forAll(points_, i)
+    {
+        const label pointi = points_[i];
+        const point& x = p0[pointi];
+        vector sum(Zero);
+        for (label k = offsets_[i]; k < offsets_[i + 1]; ++k)
+        {
+            const label j = sources_[k];
+            sum += weights_[k]
+                * (d[j] + psi_[i] * ((Rm[j] - I) & (x - patchPoints0[j])));
+        }
+        pd[pointi] = sum;
+    }
+}
+
+
+// ************************************************************************* //

@@ -1,0 +1,219 @@
+/*---------------------------------------------------------------------------*\
+    whale-adapter: whaleBlendedDisplacement motion solver
+    (see whaleBlendedDisplacementMotionSolver.H)
+\*---------------------------------------------------------------------------*/
+
+#include "whaleBlendedDisplacementMotionSolver.H"
+#include "pointKdTree.H"
+#include "common/gamgRestartOrder.H"
+#include "addToRunTimeSelectionTable.H"
+#include "pointConstraints.H"
+#include "valuePointPatchField.H"
+#include "mapPolyMesh.H"
+#include "Pstream.H"
+#include <algorithm>
+
+namespace Foam
+{
+defineTypeNameAndDebug(whaleBlendedDisplacementMotionSolver, 0);
+addToRunTimeSelectionTable(
+    motionSolver,
+    whaleBlendedDisplacementMotionSolver,
+    dictionary
+);
+addToRunTimeSelectionTable(
+    displacementMotionSolver,
+    whaleBlendedDisplacementMotionSolver,
+    displacement
+);
+}
+
+
+// * * * * * * * * * * * * * Private Member Functions  * * * * * * * * * * * //
+
+void Foam::whaleBlendedDisplacementMotionSolver::readCoeffs()
+{
+    const dictionary& dict = coeffDict();
+    const word patchName(dict.getOrDefault<word>("patch", "whale"));
+    patchi_ = mesh().boundaryMesh().findPatchID(patchName);
+    if (patchi_ < 0)
+    {
+        FatalIOErrorInFunction(dict)
+            << "patch " << patchName
+            << " not found; patches: " << mesh().boundaryMesh().names()
+            << exit(FatalIOError);
+    }
+    nNeighbours_ = dict.getOrDefault<label>("nNeighbours", 16);
+    power_ = dict.getOrDefault<scalar>("power", 3);
+    innerDistance_ = dict.getOrDefault<scalar>("innerDistance", 0.5);
+    outerDistance_ = dict.get<scalar>("outerDistance");
+    rotation_ = dict.getOrDefault<bool>("rotation", false);
+    rotationDistance_ = dict.getOrDefault<scalar>("rotationDistance", 2);
+    checkMotion_ = dict.getOrDefault<bool>("checkMotion", true);
+
+    if (nNeighbours_ < 1 || power_ <= 0 || innerDistance_ < 0
+        || outerDistance_ <= innerDistance_
+        || rotationDistance_ <= innerDistance_)
+    {
+        FatalIOErrorInFunction(dict)
+            << "need nNeighbours >= 1, power > 0, 0 <= innerDistance"
+            << " < outerDistance, innerDistance < rotationDistance; got "
+               "nNeighbours "
+            << nNeighbours_ << ", power " << power_ << ", innerDistance "
+            << innerDistance_ << ", outerDistance " << outerDistance_
+            << ", rotationDistance " << rotationDistance_ << exit(FatalIOError);
+    }
+}
+
+
+void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
+{
+    const polyPatch& pp = mesh().boundaryMesh()[patchi_];
+    const labelList& meshPoints = pp.meshPoints();
+    const pointField& p0 = points0();
+
+    patchPoints_.reset(new mergedPatchPoints(pointField(p0, meshPoints)));
+
+    const pointKdTree tree(patchPoints_->points());
+    const label K = std::min(nNeighbours_, tree.size() - 1);
+    if (K < 1)
+    {
+        FatalErrorInFunction << "patch " << pp.name() << " has " << tree.size()
+                             << " points: need at least 2" << exit(FatalError);
+    }
+
+    // Blend weights of every mesh point off the patch within outerDistance
+    weights_.reset(new patchBlendWeights(
+        p0,
+        meshPoints,
+        tree,
+        K,
+        power_,
+        innerDistance_,
+        outerDistance_,
+        rotationDistance_
+    ));
+
+    if (rotation_)
+    {
+        rotations_.reset(new patchPointRotations(tree, K));
+    }
+
+    Info << typeName << ": patch " << pp.name() << " "
+         << patchPoints_->points().size() << " points (merged from "
+         << patchPoints_->nGathered() << " over " << Pstream::nProcs()
+         << " rank(s)); " << returnReduce(weights_->size(), sumOp<label>())
+         << " mesh points blended (K " << K << ", power " << power_
+         << ", innerDistance " << innerDistance_ << ", outerDistance "
+         << outerDistance_ << ", rotation " << rotation_ << ", checkMotion "
+         << checkMotion_ << ")" << endl;
+
+    if (checkMotion_)
+    {
+        motionCheck_.reset(new meshMotionCheck(mesh(), typeName));
+    }
+}
+
+
+Foam::tmp<Foam::vectorField>
+Foam::whaleBlendedDisplacementMotionSolver::mergedPatchDisplacement() const
+{
+    const pointPatchVectorField& ppf =
+        pointDisplacement_.boundaryField()[patchi_];
+    if (!isA<valuePointPatchField<vector>>(ppf))
+    {
+        FatalErrorInFunction
+            << "pointDisplacement on patch " << ppf.patch().name() << " is "
+            << ppf.type() << ": whaleBlendedDisplacement needs a"
+            << " fixed-value kind of condition (e.g. stepServerDisplacement)"
+            << exit(FatalError);
+    }
+    return patchPoints_->merge(refCast<const valuePointPatchField<vector>>(ppf)
+    );
+}
+
+
+// * * * * * * * * * * * * * * * * Constructors  * * * * * * * * * * * * * * //
+
+Foam::whaleBlendedDisplacementMotionSolver::
+    whaleBlendedDisplacementMotionSolver(
+        const polyMesh& mesh,
+        const IOdictionary& dict
+    ) :
+    displacementMotionSolver(mesh, dict, typeName)
+{
+    readCoeffs();
+    calcWeights();
+    gamgRestartOrder::New(mesh);
+}
+
+
+Foam::whaleBlendedDisplacementMotionSolver::
+    whaleBlendedDisplacementMotionSolver(
+        const polyMesh& mesh,
+        const IOdictionary& dict,
+        const pointVectorField& pointDisplacement,
+        const pointIOField& points0
+    ) :
+    displacementMotionSolver(mesh, dict, pointDisplacement, points0, typeName)
+{
+    readCoeffs();
+    calcWeights();
+    gamgRestartOrder::New(mesh);
+}
+
+
+// * * * * * * * * * * * * * * * Member Functions  * * * * * * * * * * * * * //
+
+Foam::tmp<Foam::pointField>
+Foam::whaleBlendedDisplacementMotionSolver::curPoints() const
+{
+    tmp<pointField> tcurPoints(points0() + pointDisplacement_.primitiveField());
+    twoDCorrectPoints(tcurPoints.ref());
+    return tcurPoints;
+}
+
+
+void Foam::whaleBlendedDisplacementMotionSolver::solve()
+{
+    // The whale's condition asks the step-server (once per time)
+    pointDisplacement_.boundaryFieldRef().updateCoeffs();
+
+    const vectorField d(mergedPatchDisplacement());
+    vectorField& pd = pointDisplacement_.primitiveFieldRef();
+
+    // Only the patch's own points and the blended ones move
+    pd = Zero;
+
+    if (rotation_)
+    {
+        const tensorField Rm(rotations_->rotations(patchPoints_->points(), d));
+        weights_->apply(d, Rm, points0(), patchPoints_->points(), pd);
+    }
+    else
+    {
+        weights_->apply(d, pd);
+    }
+
+    // The patch itself (evaluate() of its condition, no new request), the
+    // other patches' conditions (slip: projected), points on several
+    // constrained patches
+    pointConstraints::New(pointDisplacement_.mesh())
+        .constrainDisplacement(pointDisplacement_, false);
+
+    // The points the mesh is about to move to, checked first
+    if (motionCheck_.valid())
+    {
+        motionCheck_->check(curPoints());
+    }
+}
+
+
+void Foam::whaleBlendedDisplacementMotionSolver::updateMesh(const mapPolyMesh&)
+{
+    FatalErrorInFunction << typeName << " does not support topology changes"
+                         << exit(FatalError);
+}
+
+
+// ************************************************************************* //
