@@ -11,6 +11,7 @@ whale's left, z up. Positions along the body are fractions s = x / L.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -114,10 +115,15 @@ class _Fin:
     root: np.ndarray  # root centre (m)
     direction: np.ndarray  # unit growth direction
     length: float
-    chord: object  # chord(t) in m, t in [0, 1] from root to tip
-    thickness_ratio: object  # the section's thickness over chord at t
-    sweep: object = None  # extra displacement along x (m) as function of t
+    chord: Callable[[float], float]  # chord(t) in m, t in [0, 1] from root to tip
+    thickness_ratio: Callable[[float], float]  # the section's thickness over chord at t
+    sweep: Callable[[float], float] | None = None  # extra displacement along x (m) at t
     chord_axis: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
+
+
+def _flat(t: float) -> float:
+    """A placeholder chord or thickness law, for a fin whose patch alone is wanted."""
+    return 0.0
 
 
 def _patch_loop(f: _Fin, n_phi: int) -> tuple[list, list]:
@@ -182,12 +188,9 @@ def _fin_layers(f: _Fin, loop_xyz: np.ndarray, inner_rc: list) -> tuple[np.ndarr
                 - side * (upper * half * ch)[:, None] * e2)
 
     root_ring = ring(0.0) - f.root + centre0
-    layers = []
-    for k in range(1, f.layers + 1):
-        t = k / f.layers
-        blend = (1 - t) ** 3
-        layers.append(ring(t) + blend * (loop_xyz - root_ring))
-    layers = np.array(layers)
+    # every layer's loop, the root's shape fading out as (1 - t)^3
+    layers = np.array([ring(k / f.layers) + (1 - k / f.layers) ** 3 * (loop_xyz - root_ring)
+                       for k in range(1, f.layers + 1)])
     # interior nodes make the rounded tip cap
     tip = []
     c1, ch, tc = centre(1.0), f.chord(1.0), f.thickness_ratio(1.0)
@@ -234,7 +237,7 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
     fl_ring = ring_at(0.305) - fa // 2
     fl_phi = int(round(n_phi * 118 / 360)) - fb // 2
     fl_loop, fl_inner = _patch_loop(
-        _Fin(fl_ring, fa, fl_phi, fb, fm, np.zeros(3), np.ones(3), 1, None, None), n_phi
+        _Fin(fl_ring, fa, fl_phi, fb, fm, np.zeros(3), np.ones(3), 1, _flat, _flat), n_phi
     )
     fl_root = rings[tuple(np.array(fl_loop).T)].mean(axis=0)
     root_chord = float(np.ptp(rings[tuple(np.array(fl_loop).T)][:, 0]))
@@ -253,7 +256,7 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
     ku_ring = n_x - 2 - ka
     ku_phi = n_phi // 4 - kb // 2
     ku_loop, _ = _patch_loop(
-        _Fin(ku_ring, ka, ku_phi, kb, km, np.zeros(3), np.ones(3), 1, None, None), n_phi
+        _Fin(ku_ring, ka, ku_phi, kb, km, np.zeros(3), np.ones(3), 1, _flat, _flat), n_phi
     )
     ku_xyz = rings[tuple(np.array(ku_loop).T)]
     ku_root = ku_xyz.mean(axis=0)

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numba
@@ -96,6 +96,10 @@ class FlukeTable:
     phase: np.ndarray
     angle: np.ndarray
     spline: bool = False
+    # the periodic closure and the spline's coefficients, set in __post_init__
+    _xp: list = field(init=False, repr=False, compare=False)
+    _fp: list = field(init=False, repr=False, compare=False)
+    _coef: list = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         # the periodic closure, built once as plain floats: the table is read at every
