@@ -40,10 +40,10 @@ class Geometry:
     source: str = "procedural"  #: "procedural" or a path to a mesh meshio can read
     length_m: float = field(default=15.0, metadata={"check": _positive})
     nodes: int = field(default=11272, metadata={"check": _within(400, 2_000_000)})
-    #: fluke span as a fraction of L (sources give 0.22-0.35 L)
-    fluke_span: float = field(default=0.32, metadata={"check": _within(0.1, 0.5)})
-    #: a mesh file's landmarks (adapter.body.landmarks.LANDMARKS), in its coordinates (m)
-    landmarks: dict = field(default_factory=dict)
+    fluke_span: float = field(default=0.32, metadata={"check": _within(0.1, 0.5)})  #: of L
+    #: the fins' sections: "naca" (hydrofoils, docs/geometry.md) or the old "ellipse"
+    fin_sections: str = field(default="naca", metadata={"choices": ("naca", "ellipse")})
+    landmarks: dict = field(default_factory=dict)  #: a mesh file's LANDMARKS, its coordinates (m)
     landmark_tolerance: float = field(default=0.01, metadata={"check": _positive})
 
 

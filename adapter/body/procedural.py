@@ -117,6 +117,7 @@ class _Fin:
     length: float
     chord: Callable[[float], float]  # chord(t) in m, t in [0, 1] from root to tip
     thickness_ratio: Callable[[float], float]  # the section's thickness over chord at t
+    tip_round: float = TIP_ROUND  # the outer share of the span with elliptic sections (1: all)
     sweep: Callable[[float], float] | None = None  # extra displacement along x (m) at t
     chord_axis: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
 
@@ -163,7 +164,8 @@ def _fin_layers(f: _Fin, loop_xyz: np.ndarray, inner_rc: list) -> tuple[np.ndarr
 
     def section(t):
         """(chord fraction, half-thickness over chord) of the loop's nodes at t."""
-        w = float(np.clip((t - (1 - TIP_ROUND)) / TIP_ROUND, 0.0, 1.0))
+        w = 1.0 if f.tip_round >= 1 else float(
+            np.clip((t - (1 - f.tip_round)) / f.tip_round, 0.0, 1.0))
         w = w * w * (3 - 2 * w)
         tc = f.thickness_ratio(t)
         xc = (1 - w) * xc_foil + w * xc_ellipse
@@ -205,16 +207,21 @@ def _fin_layers(f: _Fin, loop_xyz: np.ndarray, inner_rc: list) -> tuple[np.ndarr
 
 
 def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float = 0.32,
-                     with_regions: bool = False):
+                     with_regions: bool = False, sections: str = "naca"):
     """Build the procedural right whale: (points, faces, landmarks), and with ``with_regions``
     a fourth item, ``face_regions``: per face group the region index (:data:`REGIONS`) each
     face was built as: the flipper fins' extrusion layers and tip caps FLIPPERS, the fluke
     fins' FLUKES, the rest BODY.
 
     ``nodes`` is met to within a ring of the body (about 0.6 % at the default 11,272).
+    ``sections``: the fins' sections, ``"naca"`` (hydrofoils) or ``"ellipse"`` (the first
+    rounds' elliptic sections, blunt at both edges).
     """
     if nodes < 400:
         raise GeometryError(f"nodes = {nodes} is too coarse for a whale; use at least 400")
+    if sections not in ("naca", "ellipse"):
+        raise GeometryError(f"fin sections {sections!r}: use \"naca\" or \"ellipse\"")
+    naca = sections == "naca"
     r = np.sqrt(nodes / 11272.0)
     n_phi = max(16, 4 * int(round(18 * r)))
     fa, fb, fm = max(3, round(8 * r)), 2, max(3, round(16 * r))  # flipper patch and layers
@@ -241,16 +248,24 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
     )
     fl_root = rings[tuple(np.array(fl_loop).T)].mean(axis=0)
     root_chord = float(np.ptp(rings[tuple(np.array(fl_loop).T)][:, 0]))
+    def flipper_chord(t):
+        return root_chord * (1 + 0.35 * np.sin(np.pi * min(t, 1) ** 0.8)) * np.sqrt(
+            max(1 - t**6, 0.04))
+
+    def flipper_thickness(t):
+        if not naca:  # the first rounds' ellipses: 0.012 L thick at the root to 0.0054 L
+            return 0.012 * length * (1 - 0.55 * t) / flipper_chord(t)
+        return (FLIPPER_THICKNESS[0] + (FLIPPER_THICKNESS[1] - FLIPPER_THICKNESS[0]) * t
+                + FLIPPER_TIP_ROUNDING * t**8)
+
     flipper = _Fin(
         fl_ring, fa, fl_phi, fb, fm,
         root=fl_root,
         direction=np.array([0.45, 0.75, -0.48]),
         length=0.11 * length,
-        chord=lambda t: root_chord * (1 + 0.35 * np.sin(np.pi * min(t, 1) ** 0.8))
-        * np.sqrt(max(1 - t**6, 0.04)),
-        thickness_ratio=lambda t: (FLIPPER_THICKNESS[0]
-                                   + (FLIPPER_THICKNESS[1] - FLIPPER_THICKNESS[0]) * t
-                                   + FLIPPER_TIP_ROUNDING * t**8),
+        chord=flipper_chord,
+        thickness_ratio=flipper_thickness,
+        tip_round=TIP_ROUND if naca else 1.0,
     )
     # Flukes: swept wings from the sides of the tail stock, span fluke_span * L tip to tip
     ku_ring = n_x - 2 - ka
@@ -261,16 +276,24 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
     ku_xyz = rings[tuple(np.array(ku_loop).T)]
     ku_root = ku_xyz.mean(axis=0)
     half_span = 0.5 * fluke_span * length - ku_root[1]
+    def fluke_chord(t):
+        return 0.085 * length * (1.0 + 0.25 * np.sin(np.pi * min(t, 1.0))) * np.sqrt(
+            max(1 - t**2.2, 0.015))
+
+    def fluke_thickness(t):
+        if not naca:  # the first rounds' ellipses: 0.016 L thick at the root to 0.004 L
+            return 0.016 * length * (1 - 0.75 * t) / fluke_chord(t)
+        return FLUKE_THICKNESS[0] + (FLUKE_THICKNESS[1] - FLUKE_THICKNESS[0]) * t
+
     fluke = _Fin(
         ku_ring, ka, ku_phi, kb, km,
         root=ku_root,
         direction=np.array([0.0, 1.0, 0.0]),
         length=half_span,
-        chord=lambda t: 0.085 * length * (1.0 + 0.25 * np.sin(np.pi * min(t, 1.0)))
-        * np.sqrt(max(1 - t**2.2, 0.015)),
-        thickness_ratio=lambda t: FLUKE_THICKNESS[0] + (FLUKE_THICKNESS[1]
-                                                       - FLUKE_THICKNESS[0]) * t,
+        chord=fluke_chord,
+        thickness_ratio=fluke_thickness,
         sweep=lambda t: 0.075 * length * t**1.6,
+        tip_round=TIP_ROUND if naca else 1.0,
     )
 
     # assemble: nose pole, rings, tail pole, then the fins' layers

@@ -70,7 +70,7 @@ class DriveArrays(NamedTuple):
         """The drive of a free network: no stroke force, no kinematic nodes."""
         nodes, values = np.zeros(0, dtype=np.int64), np.zeros(0)
         return cls(np.zeros((0, 3)), nodes, values, values, np.zeros(2), nodes, nodes,
-                   np.zeros((0, 3)), np.zeros(3), values)
+                   np.zeros((0, 3)), np.zeros(3), np.zeros((0, 2)))
 
 
 #: half-width (fraction of L) of the band of body nodes just ahead of the tail base whose
