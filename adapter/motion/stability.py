@@ -189,8 +189,8 @@ def _fast_modes(net, points, dofs, need_fe=True):
     Forward Euler needs dt <= c / omega^2 per mode, i.e. dt <= 1 / theta_max with theta the
     largest ratio u^T K u / u^T C u. Edge by edge, k (n . du)^2 <= k |du|^2, so
     theta_max <= k_max / mu, and theta_max <= lambda_max(K) / nu: the step
-    max(mu / k_max, nu / lambda_max(K)) is always stable. On the smoke whale it is 29 %, 15 %,
-    13 % and 3 % below the exact modal value (:func:`predict` with ``exact=True``) at mu = 0.05,
+    max(mu / k_max, nu / lambda_max(K)) is always stable. On the smoke whale it is 24 %, 6.5 %,
+    4.9 % and 3 % below the exact modal value (:func:`predict` with ``exact=True``) at mu = 0.05,
     0.3, 0.5 and 3 (tests/test_numerics.py): on the safe side, most so at low damping.
     """
     from scipy.sparse.linalg import eigsh
