@@ -26,6 +26,7 @@ from adapter.coupling.protocol import SOCKET_NAME
 from adapter.errors import CaseError, SceneError
 from adapter.foam.dictionaries import PLUGIN_LIB, choose_decomposition, write_dictionaries
 from adapter.foam.loads import body_dimensions
+from adapter.foam.parallel import resolve_ranks
 from adapter.foam.parameters import CaseParameters, case_parameters
 
 #: the template case (foam_case/ of the repository, adapter/_foam_case in a wheel)
@@ -51,7 +52,8 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     ----------
     scene : a :class:`~adapter.scene.Scene`.
     case_dir : folder to create; it must not hold a case yet (no ``system/controlDict``).
-    ranks : MPI ranks (decomposeParDict); None takes ``scene.case.ranks``.
+    ranks : MPI ranks (decomposeParDict); None takes ``scene.case.ranks``; 0 (the scene's
+        default): the machine's cores (:func:`~adapter.foam.parallel.machine_cores`).
     static_whale : the whale patch gets ``fixedValue uniform (0 0 0)`` instead of the
         step-server boundary condition, and the plugin library is not loaded (a flow-only case,
         no server needed).
@@ -90,6 +92,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     if surface.is_whale:
         surface.write_regions_stl(stl.with_name(FLIPPERS_STL), only="flippers")
     pts = np.asarray(surface.points)
+    ranks = resolve_ranks(ranks if ranks is not None else scene.case.ranks)
     params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
                              length=surface.length)
     # the flukes' blade, case.fluke_clearance of its cells behind the hinge (so that the
