@@ -16,7 +16,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +24,7 @@ import numpy as np
 from adapter import jsonfiles, resources
 from adapter.coupling.protocol import SOCKET_NAME
 from adapter.errors import CaseError, SceneError
+from adapter.foam import symmetry
 from adapter.foam.dictionaries import PLUGIN_LIB, choose_decomposition, write_dictionaries
 from adapter.foam.loads import body_dimensions
 from adapter.foam.parallel import resolve_ranks
@@ -101,7 +102,14 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         surface.write_fluke_blade_stl(stl.with_name(FLUKE_BLADE_STL),
                                       scene.case.fluke_clearance * params.fluke_cell_m)
     decomposition = choose_decomposition(case, scene.case.decomposition, scene.base_dir)
+    half = symmetry.use_half_domain(scene, surface)
+    if half:
+        lo, hi, cells = symmetry.half_box(params.domain_min, params.domain_max, params.cells,
+                                          params.cell_size)
+        params = replace(params, domain_min=lo, domain_max=hi, cells=cells)
     write_dictionaries(case, scene, params, static_whale, decomposition)
+    if half:
+        symmetry.write_half_domain(case)
     # a body without the whale's landmarks is all body: its "tail base" lies past its end
     tail_base_s = float(surface.s[surface.landmarks["tail_base"]]) if surface.is_whale else 2.0
     st = scene.stroke
@@ -120,6 +128,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         "periodic_tolerance": scene.case.periodic_tolerance,
         "preset": scene.name,
         "static_whale": static_whale,
+        symmetry.RECORD_KEY: half,
         "length_m": float(surface.length),
         "body_size_m": [float(v) for v in np.ptp(pts, axis=0)],
         "period_s": scene.period_s,
