@@ -234,6 +234,10 @@ def test_run_case_stops_before_the_mesh_inverts(tmp_path, smoke_mesh):
     control = ParsedParameterFile(str(case / "system" / "controlDict"))
     control["libs"] = ['"libfvMotionSolvers.so"', *control["libs"]]
     control.writeFile()
+    # the smoke mesh is a static whale's (staticFvMesh): made a moving mesh again
+    dynamic = ParsedParameterFile(str(case / "constant" / "dynamicMeshDict"))
+    dynamic["dynamicFvMesh"] = "dynamicMotionSolverFvMesh"
+    dynamic.writeFile()
     assert "checkMotion yes" in (case / "constant" / "dynamicMeshDict").read_text()
     dt = C.read_record(case)["parameters"]["delta_t"]
     with pytest.raises(SolverRunError) as err:
