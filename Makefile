@@ -6,7 +6,8 @@
 #   make lint       ruff, then mypy on adapter/ (make typecheck: mypy alone)
 #   make test-fast  lint + the tests that need no OpenFOAM, ParaView, chromium or apt (under 90 s)
 #   make dry-run    animate without fluid (SCENE, OUT, CYCLES)
-#   make bench      performance figures (bench-flow: moving against static flow step); make chart: the numerics study
+#   make bench      performance figures (bench-flow: moving against static flow step; bench-cases: 1/2 ranks,
+#                   full/half domain); make chart: the numerics study
 #   make paraview   ParaView pictures of the case just run (CASE; DIR=out/dry-run for a dry-run)
 #   make validate   the flows with known answers (docs/validation.md; NP, VALIDATION)
 #   make mutation   mutation testing of the core modules (MODULES, JOBS; docs/mutation.md)
@@ -34,7 +35,7 @@ JOBS ?= 2
 
 scene_args = $(if $(filter %.toml,$(SCENE)),--scene $(SCENE),--preset $(SCENE))
 
-.PHONY: help setup venv system openfoam plugin test test-fast lint typecheck dry-run calibrate run-case study bench bench-flow \
+.PHONY: help setup venv system openfoam plugin test test-fast lint typecheck dry-run calibrate run-case study bench bench-flow bench-cases \
         chart paraview paraview-deps chromium-deps mutation validate clean distclean
 
 help:
@@ -118,6 +119,12 @@ bench: venv
 # time of a coupled case that has run (CASE, default runs/default from make run-case)
 bench-flow: venv
 	$(BIN)/python scripts/bench_flow.py $(if $(CASE),--case $(CASE))
+
+# make bench-cases: the scene's coupled case on 1 and 2 ranks, full and half domain, side by
+# side: wall time per stroke cycle and the coupling's share (SCENE; WRITES write intervals, 1)
+WRITES ?= 1
+bench-cases: venv system openfoam plugin
+	$(BIN)/python scripts/bench_cases.py $(scene_args) --writes $(WRITES)
 
 chart: venv
 	$(BIN)/whale-adapter numerics --out out/numerics

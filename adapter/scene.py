@@ -183,7 +183,7 @@ class Case:
     dt_s: float = field(default=0.0, metadata={"check": _non_negative})
     writes_per_cycle: int = field(default=4, metadata={"check": _within(1)})
     turbulence: str = field(default="kOmegaSST", metadata={"choices": ("kOmegaSST", "laminar")})
-    ranks: int = field(default=1, metadata={"check": _within(1)})
+    ranks: int = field(default=0, metadata={"check": _within(0)})   # 0: the machine's cores
     #: the inflow ramps in from still water over this many stroke cycles (0: impulsive)
     inflow_ramp_cycles: float = field(default=0.5, metadata={"check": _non_negative})
     #: run-case also runs the whale gliding (same mesh, no stroke) for the drag baseline
@@ -201,13 +201,13 @@ class Case:
     mesh_motion: str = field(default="blended", metadata={"choices": ("blended", "laplacian")})
     motion_inner: float = field(default=1.0 / 30.0, metadata={"check": _non_negative})
     motion_outer: float = field(default=2.0 / 3.0, metadata={"check": _positive})
-    #: on several ranks (docs/cluster.md): the launcher ("": this machine's mpirun; ``{np}``
-    #: the rank count), "hierarchical", "case" or a decomposeParDict file, snappyHexMesh on
-    #: the ranks, reconstructPar after the run
+    #: on several ranks (docs/cluster.md): launcher ("": mpirun; ``{np}``: the ranks), the
+    #: decomposition, snappyHexMesh on the ranks, reconstructPar; symmetry "auto": half domain
     launcher: str = ""
     decomposition: str = "hierarchical"
     parallel_meshing: bool = False
     reconstruct: bool = False
+    symmetry: str = field(default="auto", metadata={"choices": ("auto", "off")})   # y = 0 plane
 
 
 @dataclass(frozen=True)

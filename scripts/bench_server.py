@@ -1,9 +1,11 @@
 #!/usr/bin/env python
 """Measure the step-server: compute per request and transfer per request on a UNIX socket.
 
-Starts a real StepServer (in a thread) on a scene preset in a temporary case folder, connects
-one client (one rank) with P patch points sampled near the whale, and sends REQUESTs at a fixed
-flow step, sleeping ``--solve`` seconds between them as OpenFOAM would while it solves the flow.
+Starts a real StepServer (in a process of its own, as ``run-case`` does: a client thread in the
+server's process would share its GIL with the work-ahead) on a scene preset in a temporary case
+folder, connects one client (one rank) with P patch points sampled near the whale, and sends
+REQUESTs at a fixed flow step, sleeping ``--solve`` seconds between them as OpenFOAM would while
+it solves the flow.
 
     .venv/bin/python scripts/bench_server.py --preset default --points 2500 15000
 
@@ -15,10 +17,11 @@ transfer per request, client round trip, and work-ahead hits.
 from __future__ import annotations
 
 import argparse
+import json
+import multiprocessing
 import socket
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -27,8 +30,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from adapter.coupling import protocol as wire  # noqa: E402
-from adapter.coupling.protocol import MessageType  # noqa: E402
-from adapter.coupling.server import StepServer  # noqa: E402
+from adapter.coupling.protocol import SOCKET_NAME, MessageType  # noqa: E402
+from adapter.coupling.server import OUTPUT_DIR, StepServer  # noqa: E402
 from adapter.motion.animator import Animator  # noqa: E402
 from adapter.scene import load_scene  # noqa: E402
 
@@ -49,14 +52,24 @@ def call(sock, seq, msg_type, payload=b""):
     return frame
 
 
+def _serve(tmp, scene, animator, started):
+    srv = StepServer(tmp, scene, animator=animator, first_client_timeout=60)
+    srv.start()
+    started.set()
+    srv.run()
+
+
 def bench(animator, scene, n_points, steps, flow_dt, solve_s):
     with tempfile.TemporaryDirectory() as tmp:
-        srv = StepServer(tmp, scene, animator=animator, first_client_timeout=60)
-        srv.start()
-        th = threading.Thread(target=srv.run, daemon=True)
-        th.start()
+        # forked: the child has the animator already built
+        ctx = multiprocessing.get_context("fork")
+        started = ctx.Event()
+        server = ctx.Process(target=_serve, args=(tmp, scene, animator, started), daemon=True)
+        server.start()
+        if not started.wait(60):
+            raise SystemExit("the step-server did not start within 60 s")
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-        sock.connect(str(srv.listener.socket_path))
+        sock.connect(str(Path(tmp) / SOCKET_NAME))
         t0 = time.perf_counter()
         call(sock, 1, MessageType.HELLO, wire.pack_hello(1, sample_points(animator.surface,
                                                                              n_points)))
@@ -69,8 +82,8 @@ def bench(animator, scene, n_points, steps, flow_dt, solve_s):
             time.sleep(solve_s)
         wire.send_frame(sock, MessageType.BYE, b"", steps + 2)
         sock.close()
-        th.join(60)
-        s = srv.stats
+        server.join(60)
+        s = json.loads((Path(tmp) / OUTPUT_DIR / "server-stats.json").read_text())
     # the first two requests have no work-ahead yet; report the steady state too
     print(f"P={n_points:6d} ({12 + 24 * n_points} B/reply): HELLO+mapping "
           f"{1e3 * hello_s:.0f} ms | server compute/request median "

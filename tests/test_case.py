@@ -21,6 +21,7 @@ from adapter.foam import logs as LG
 from adapter.foam import parameters as P
 from adapter.foam import run as R
 from adapter.foam import summary as S
+from adapter.foam.swimrun import prepare_gliding
 from adapter.scene import load_scene
 
 
@@ -118,6 +119,27 @@ def test_the_blended_motion_runs_without_openfoams_second_check(tmp_path, smoke,
     dyn = tmp_path / "c" / "constant" / "dynamicMeshDict"
     dyn.write_text(dyn.read_text().replace("checkMotion yes", "checkMotion no"))
     assert "-debug-switch" in R.solver_command(tmp_path / "c")
+
+
+def test_a_static_whale_is_on_a_static_mesh_as_the_gliding_run(tmp_path, smoke, smoke_surface):
+    # --static-whale: neither moved nor checked every step (pimpleFoam builds a staticFvMesh),
+    # with either mesh motion's entries left unread, and no polyMesh debug switch for the watch
+    for motion in ("blended", "laplacian"):
+        case = tmp_path / motion
+        C.prepare_case(smoke.replace(case={"mesh_motion": motion}), case,
+                       surface=smoke_surface, static_whale=True)
+        assert _read(case / "constant" / "dynamicMeshDict")["dynamicFvMesh"] == "staticFvMesh"
+        whale = _read(case / "0.orig" / "pointDisplacement")["boundaryField"]["whale"]
+        assert whale["type"] == "fixedValue"
+        assert R.solver_command(case) == ["pimpleFoam", "-opt-switch",
+                                          f"stopAtWriteNowSignal={int(R.STOP_SIGNAL)}"]
+    # the gliding copy of a coupled case is held still the same way
+    C.prepare_case(smoke, tmp_path / "coupled", surface=smoke_surface)
+    glide = prepare_gliding(tmp_path / "coupled")
+    assert _read(glide / "constant" / "dynamicMeshDict")["dynamicFvMesh"] == "staticFvMesh"
+    for zero in ("0", "0.orig"):
+        assert _read(glide / zero / "pointDisplacement").content == \
+            _read(tmp_path / "blended" / "0.orig" / "pointDisplacement").content
 
 
 def test_log_watch_reads_the_blended_motions_figures():
@@ -435,7 +457,8 @@ def test_run_case_twice_with_the_same_preset_continues(tmp_path, capsys):
     args = ["run-case", "--preset", "smoke", "--static-whale", "--case", str(case)]
     assert main(args) == 0
     out = capsys.readouterr().out
-    assert "largest non-orthogonality" in out and not out.rstrip().endswith("}")
+    # the summary table; a static mesh has only its figures before the run (checkMesh)
+    assert "before motion" in out and "mean drag" in out and not out.rstrip().endswith("}")
     end = C.read_record(case)["parameters"]["end_time"]
     assert main(args) == 0
     out = capsys.readouterr().out

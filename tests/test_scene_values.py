@@ -112,7 +112,7 @@ def test_good_values_are_stored_as_their_kind(tmp_path):
     ("case.fluke_clearance", [0.0, 0.2], [-0.01], "[0, inf)"),
     ("case.layer_expansion", [1.0, 3.0], [0.99, 3.01], "[1, 3]"),
     ("case.writes_per_cycle", [1], [0], "[1, inf)"),
-    ("case.ranks", [1], [0], "[1, inf)"),
+    ("case.ranks", [0, 1], [-1], "[0, inf)"),
 ])
 def test_each_range_at_its_limits(tmp_path, key, ok, bad, allowed):
     """... and the error gives the range, as an interval ("(" and ")": that end excluded)."""

@@ -30,7 +30,8 @@ def truth(smoke_scene, smoke_surface):
 
 
 def _settle(timeline, timeout=30.0):
-    """Wait for the work-ahead thread to finish."""
+    """Start the work-ahead (the answer is sent, as the session does) and wait for it."""
+    timeline.work_ahead()
     timeline.join(timeout)
 
 
@@ -45,6 +46,25 @@ def test_steps_match_an_uninterrupted_animator(animator, truth):
     assert tl.stats.steps == 4
     # from the third step on the guess (the last step repeated) was right
     assert tl.stats.ahead_tries == 2 and tl.stats.ahead_hits == 2
+
+
+def test_the_work_ahead_waits_until_the_answer_is_sent(animator, truth):
+    # motion() only computes: the guess for the next time starts at work_ahead(), after the
+    # session sent the answer (sharing the GIL with the compiled kernels delayed it)
+    tl = Timeline(animator)
+    for k in range(1, 4):
+        tl.motion(k * DT, last_t=(k - 1) * DT if k > 1 else None, restarted=(k == 1))
+        tl.join()
+    assert tl.stats.ahead_tries == 0
+    _settle(tl)                                     # ahead to 4 DT
+    hit = tl.motion(4 * DT, last_t=3 * DT, restarted=False)
+    assert tl.stats.ahead_tries == 1 and tl.stats.ahead_hits == 1
+    np.testing.assert_array_equal(hit.disp, truth[4])
+    # the hit's state (taken ahead) continues as an uninterrupted animator would
+    _settle(tl)
+    np.testing.assert_array_equal(tl.motion(5 * DT, last_t=4 * DT, restarted=False).disp,
+                                  truth[5])
+    assert tl.stats.ahead_hits == 2
 
 
 def test_a_repeat_gets_the_same_state_and_a_miss_is_undone(animator, truth):

@@ -189,12 +189,14 @@ class Session:
                 raise WireError(ErrorCode.BAD_FRAME, "REQUEST before HELLO")
             payload = wire.pack_displacement(t, self.patch.apply(served.disp))
             self.last_reply = (t, payload)
-        forces = np.concatenate([req.pressure_force, req.viscous_force])
         self.first_request = False
         self.last_t = t if self.last_t is None else max(self.last_t, t)
-        server.recorder.add_forces(t, forces)
         t_ready = time.perf_counter()
         send_s = self.send(MessageType.DISPLACEMENT, payload, frame.seq)
+        # the rest while OpenFOAM solves this step: only now, the answer sent (the work-ahead's
+        # compiled kernels hold the GIL); the next REQUEST comes on this thread, after it
+        server.timeline.work_ahead()
+        server.recorder.add_forces(t, np.concatenate([req.pressure_force, req.viscous_force]))
         server.stats_counter.add_request(t_ready - t_start, (t_start - t_recv) + send_s)
         log.debug("%s t=%s compute %.3g ms send %.3g ms", self.peer, time_name(t),
                   1e3 * (t_ready - t_start), 1e3 * send_s)

@@ -3,8 +3,11 @@
 Each time is computed once (the last few are kept, so that a lagging request gets the same
 bytes); while OpenFOAM solves the flow, a thread already advances the animator to the next
 expected time (the last step repeated), and a wrong guess is undone from the checkpoint taken
-before it. A time behind the animator is reached again from a saved state (:mod:`.store`) or by
-replay from t = 0. No sockets: the step-server's sessions ask :meth:`Timeline.motion`.
+before it. The work-ahead starts when the caller says the answer is on its way
+(:meth:`Timeline.work_ahead`), not before: its compiled kernels hold the GIL, and the answer
+would wait for them. A time behind the animator is reached again from a saved state
+(:mod:`.store`) or by replay from t = 0. No sockets: the step-server's sessions ask
+:meth:`Timeline.motion`.
 """
 
 from __future__ import annotations
@@ -51,6 +54,8 @@ class Ahead:
     disp: np.ndarray
     vel: np.ndarray
     compute_s: float
+    post: dict             # the animator's state after it (the hit's checkpoint, taken ahead)
+    animator_time: float
 
 
 @dataclasses.dataclass
@@ -90,6 +95,7 @@ class Timeline:
         self._served: OrderedDict[float, Served] = OrderedDict()
         self._ahead: Ahead | None = None
         self._ahead_thread: threading.Thread | None = None
+        self._ahead_next: tuple[int, float] | None = None   # (generation, target) to start
         self._generation = 0
 
     # --- asking -----------------------------------------------------------------------------
@@ -169,6 +175,19 @@ class Timeline:
                 self.failure = message
         return first
 
+    def work_ahead(self) -> None:
+        """Start advancing the animator to the next expected time in the background (the
+        last step repeated), if the last :meth:`motion` computed a new time after another;
+        call it once the answer has been sent, so that the two do not share the GIL."""
+        with self._cache_lock:
+            pending, self._ahead_next = self._ahead_next, None
+        if pending is None:
+            return
+        thread = threading.Thread(target=self._work_ahead, args=pending, daemon=True,
+                                  name="step-server work-ahead")
+        self._ahead_thread = thread
+        thread.start()
+
     def join(self, timeout: float = 30.0) -> None:
         """Wait for a running work-ahead."""
         if self._ahead_thread is not None:
@@ -202,14 +221,14 @@ class Timeline:
         elif last is None:
             self._jump_from_state(t)
         if hit and ahead is not None and t == ahead.target:
-            disp, vel = ahead.disp, ahead.vel
+            served = Served(t, ahead.disp, ahead.vel, ahead.post, ahead.animator_time)
         else:
             disp = np.array(a.displacement(t), dtype=np.float64)
             vel = np.array(a.velocity(t), dtype=np.float64)
-        if not np.isfinite(disp).all():
-            raise UnstableError(f"the whale's displacement at t = {t} s is not finite; "
-                                f"lower [integrator] dt_s")
-        served = Served(t, disp, vel, copy_state(a.checkpoint()), float(a.time))
+            if not np.isfinite(disp).all():
+                raise UnstableError(f"the whale's displacement at t = {t} s is not finite; "
+                                    f"lower [integrator] dt_s")
+            served = Served(t, disp, vel, copy_state(a.checkpoint()), float(a.time))
         compute_s = time.perf_counter() - t0
         if hit:
             self.stats.ahead_hits += 1
@@ -231,16 +250,10 @@ class Timeline:
         extra = f" (ahead {1e3 * ahead.compute_s:.3g} ms)" if ahead is not None else ""
         log.info("t=%s compute %.3g ms, %s%s%s", time_name(t), 1e3 * compute_s, note, extra,
                  ", restart" if restart and last is not None else "")
-        if prev is not None and t > prev:
-            self._start_work_ahead(t + (t - prev))
+        with self._cache_lock:
+            self._ahead_next = ((self._generation, t + (t - prev))
+                                if prev is not None and t > prev else None)
         return served
-
-    def _start_work_ahead(self, target: float) -> None:
-        gen = self._generation
-        thread = threading.Thread(target=self._work_ahead, args=(gen, target), daemon=True,
-                                  name="step-server work-ahead")
-        self._ahead_thread = thread
-        thread.start()
 
     def _work_ahead(self, gen: int, target: float) -> None:
         with self._lock:
@@ -252,11 +265,15 @@ class Timeline:
             try:
                 disp = np.array(a.displacement(target), dtype=np.float64)
                 vel = np.array(a.velocity(target), dtype=np.float64)
+                if not np.isfinite(disp).all():
+                    raise UnstableError("not finite")
             except Exception as exc:    # undone; the real request will meet it again
                 a.restore(copy_state(pre))
                 log.info("work-ahead to t=%s failed (%s); undone", time_name(target), exc)
                 return
-            self._ahead = Ahead(target, pre, disp, vel, time.perf_counter() - t0)
+            post = copy_state(a.checkpoint())
+            self._ahead = Ahead(target, pre, disp, vel, time.perf_counter() - t0, post,
+                                float(a.time))
 
     def _seek_back(self, t: float) -> None:
         """Restore the animator to a state that can reach t: a saved state, else t = 0."""

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from adapter.errors import MeshError
+from adapter.foam import symmetry
 from adapter.foam.dictionaries import parsed_dict
 from adapter.foam.foamascii import (
     face_area_vectors,
@@ -118,6 +119,10 @@ def body_check(case, record: dict, layers: dict | None = None) -> dict:
     ``layers``: :func:`~adapter.foam.mesh.layer_record`'s table (``area_with_layers``)."""
     case = Path(case)
     mesh = patch_figures(case)
+    if symmetry.is_half(case):
+        # the half y >= 0 of the whale: its area and, with the plane through the origin, its
+        # enclosed volume are half the surface's (adapter/foam/symmetry.py)
+        mesh = {k: 2 * v for k, v in mesh.items()}
     stl = stl_figures(case / "constant" / "triSurface" / "whale.stl")
     levels = mesh_levels(case)
     cell = float(min(record["parameters"]["cell_size"]))

@@ -16,7 +16,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
@@ -24,8 +24,10 @@ import numpy as np
 from adapter import jsonfiles, resources
 from adapter.coupling.protocol import SOCKET_NAME
 from adapter.errors import CaseError, SceneError
+from adapter.foam import symmetry
 from adapter.foam.dictionaries import PLUGIN_LIB, choose_decomposition, write_dictionaries
 from adapter.foam.loads import body_dimensions
+from adapter.foam.parallel import resolve_ranks
 from adapter.foam.parameters import CaseParameters, case_parameters
 
 #: the template case (foam_case/ of the repository, adapter/_foam_case in a wheel)
@@ -51,7 +53,8 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     ----------
     scene : a :class:`~adapter.scene.Scene`.
     case_dir : folder to create; it must not hold a case yet (no ``system/controlDict``).
-    ranks : MPI ranks (decomposeParDict); None takes ``scene.case.ranks``.
+    ranks : MPI ranks (decomposeParDict); None takes ``scene.case.ranks``; 0 (the scene's
+        default): the machine's cores (:func:`~adapter.foam.parallel.machine_cores`).
     static_whale : the whale patch gets ``fixedValue uniform (0 0 0)`` instead of the
         step-server boundary condition, and the plugin library is not loaded (a flow-only case,
         no server needed).
@@ -90,6 +93,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     if surface.is_whale:
         surface.write_regions_stl(stl.with_name(FLIPPERS_STL), only="flippers")
     pts = np.asarray(surface.points)
+    ranks = resolve_ranks(ranks if ranks is not None else scene.case.ranks)
     params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
                              length=surface.length)
     # the flukes' blade, case.fluke_clearance of its cells behind the hinge (so that the
@@ -98,7 +102,14 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         surface.write_fluke_blade_stl(stl.with_name(FLUKE_BLADE_STL),
                                       scene.case.fluke_clearance * params.fluke_cell_m)
     decomposition = choose_decomposition(case, scene.case.decomposition, scene.base_dir)
+    half = symmetry.use_half_domain(scene, surface)
+    if half:
+        lo, hi, cells = symmetry.half_box(params.domain_min, params.domain_max, params.cells,
+                                          params.cell_size)
+        params = replace(params, domain_min=lo, domain_max=hi, cells=cells)
     write_dictionaries(case, scene, params, static_whale, decomposition)
+    if half:
+        symmetry.write_half_domain(case)
     # a body without the whale's landmarks is all body: its "tail base" lies past its end
     tail_base_s = float(surface.s[surface.landmarks["tail_base"]]) if surface.is_whale else 2.0
     st = scene.stroke
@@ -117,6 +128,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         "periodic_tolerance": scene.case.periodic_tolerance,
         "preset": scene.name,
         "static_whale": static_whale,
+        symmetry.RECORD_KEY: half,
         "length_m": float(surface.length),
         "body_size_m": [float(v) for v in np.ptp(pts, axis=0)],
         "period_s": scene.period_s,

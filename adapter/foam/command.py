@@ -21,11 +21,12 @@ from adapter.foam.case import (
 from adapter.foam.dictionaries import DECOMPOSITIONS, choose_decomposition, parsed_dict
 from adapter.foam.folders import asked_start, resume_time
 from adapter.foam.mesh import mesh_case
+from adapter.foam.parallel import ranks_option
 from adapter.foam.report import REPORT, write_report
 from adapter.foam.run import run_case
 from adapter.foam.summary import SUMMARY, format_summary
 from adapter.foam.swimrun import COST_ROWS, run_swim_and_glide
-from adapter.options import count, default_folder, in_file, out_folder, port
+from adapter.options import default_folder, in_file, out_folder, port
 from adapter.scene import load_scene
 
 #: run-case's exit code when the swimming run ended without reaching its periodic state
@@ -48,8 +49,9 @@ def register(subparsers) -> None:
                    help="case folder (default: runs/<scene file's stem> with --scene, as make "
                         "run-case SCENE=my.toml gives runs/my; else runs/<preset>); --out is "
                         "the same, the output place's spelling in the other commands")
-    p.add_argument("--np", type=count, default=None, dest="ranks",
-                   help="MPI ranks (default: the scene's case.ranks)")
+    p.add_argument("--np", type=ranks_option, default=None, dest="ranks",
+                   help="MPI ranks, or auto: the machine's cores (default: the scene's "
+                        "case.ranks; 0 there: auto)")
     p.add_argument("--mesh-only", action="store_true", help="prepare and mesh, do not run")
     p.add_argument("--static-whale", action="store_true",
                    help="flow only: the whale does not move, no step-server or plugin needed")

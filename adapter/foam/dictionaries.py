@@ -145,19 +145,35 @@ def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool,
     d = parsed_dict(zero / "omega")
     d["omegaInlet"] = p.omega_inlet
     d.writeFile()
-    d = parsed_dict(zero / "pointDisplacement")
     if static_whale:
-        d["boundaryField"]["whale"] = {"type": "fixedValue", "value": "uniform (0 0 0)"}
-    else:
-        d["boundaryField"]["whale"] = {
-            "type": "stepServerDisplacement",
-            # no socket/port: the master rank reads <case>/.whale-adapter.endpoint, where the
-            # server says it listens (UNIX socket or TCP); no token (the environment's)
-            "connectTimeout": CONNECT_TIMEOUT_S,
-            "replyTimeout": REPLY_TIMEOUT_S,
-            "rhoInf": scene.flow.rho_kg_m3,
-            "value": "uniform (0 0 0)",
-        }
+        hold_still(case)
+        return
+    d = parsed_dict(zero / "pointDisplacement")
+    d["boundaryField"]["whale"] = {
+        "type": "stepServerDisplacement",
+        # no socket/port: the master rank reads <case>/.whale-adapter.endpoint, where the
+        # server says it listens (UNIX socket or TCP); no token (the environment's)
+        "connectTimeout": CONNECT_TIMEOUT_S,
+        "replyTimeout": REPLY_TIMEOUT_S,
+        "rhoInf": scene.flow.rho_kg_m3,
+        "value": "uniform (0 0 0)",
+    }
+    d.writeFile()
+
+
+def hold_still(case: Path) -> None:
+    """The whale held still on a static mesh: its patch ``fixedValue (0 0 0)`` in
+    pointDisplacement (``0.orig`` and ``0`` where they exist) and ``staticFvMesh``, so that
+    pimpleFoam neither moves nor checks the mesh (nor asks a step-server); the motion solver's
+    entries stay, unread."""
+    for zero in ("0.orig", "0"):
+        path = case / zero / "pointDisplacement"
+        if path.is_file():
+            d = parsed_dict(path)
+            d["boundaryField"]["whale"] = {"type": "fixedValue", "value": "uniform (0 0 0)"}
+            d.writeFile()
+    d = parsed_dict(case / "constant" / "dynamicMeshDict")
+    d["dynamicFvMesh"] = "staticFvMesh"
     d.writeFile()
 
 

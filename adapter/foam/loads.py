@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from adapter.errors import CaseError
+from adapter.foam import symmetry
 from adapter.foamfiles import time_dirs
 
 #: the function object's name in system/controlDict (its postProcessing folder)
@@ -51,7 +52,9 @@ def read_loads(case_dir, name: str = LOADS_NAME) -> dict:
     if not rows or header is None:
         return {}
     data = np.array([rows[t] for t in sorted(rows)])
-    return {h: data[:, k] for k, h in enumerate(header)}
+    columns = {h: data[:, k] for k, h in enumerate(header)}
+    # a half-domain case's loads are the whole body's from here on (adapter/foam/symmetry.py)
+    return symmetry.whole_body(columns) if symmetry.is_half(case_dir) else columns
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,8 @@ hosts through the environment; other launchers (srun) pass the environment on th
 
 from __future__ import annotations
 
+import math
+import os
 import shlex
 from pathlib import Path
 
@@ -17,11 +19,52 @@ from adapter.coupling.protocol import TOKEN_ENV
 from adapter.errors import CaseError
 from adapter.foam.folders import processor_latest, serial_latest
 from adapter.foam.tools import run_utility
+from adapter.options import count
 
 #: the launcher on this machine (one host, Open MPI, possibly more ranks than cores)
 DEFAULT_LAUNCHER = "mpirun --allow-run-as-root --oversubscribe -np {np}"
 #: launchers that forward an environment variable with ``-x NAME``
 OPEN_MPI = ("mpirun", "mpiexec", "orterun")
+#: the cgroup's CPU limit: v2's cpu.max ("QUOTA PERIOD" or "max PERIOD"), v1's quota and period
+CGROUP_V2 = Path("/sys/fs/cgroup/cpu.max")
+CGROUP_V1 = (Path("/sys/fs/cgroup/cpu/cpu.cfs_quota_us"),
+             Path("/sys/fs/cgroup/cpu/cpu.cfs_period_us"))
+
+
+def machine_cores(cgroup_v2: Path = CGROUP_V2, cgroup_v1: tuple = CGROUP_V1) -> int:
+    """The cores this process may use: the CPUs it may run on (``os.sched_getaffinity``, else
+    ``os.cpu_count()``), fewer when its cgroup's CPU quota is smaller (quota / period rounded
+    up: 1.5 CPUs are 2 ranks); at least 1. What ``case.ranks = 0`` and ``--np auto`` run on."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cores = os.cpu_count() or 1
+    quota = _cgroup_quota(cgroup_v2, cgroup_v1)
+    if quota is not None:
+        cores = min(cores, math.ceil(quota))
+    return max(1, cores)
+
+
+def _cgroup_quota(v2: Path, v1: tuple) -> float | None:
+    """The cgroup's CPU quota in CPUs, or None without a limit (or a readable file)."""
+    try:
+        words = v2.read_text().split()
+        if len(words) == 2 and words[0] != "max":
+            return int(words[0]) / int(words[1])
+        if words:
+            return None
+    except (OSError, ValueError):
+        pass
+    try:
+        quota, period = (int(f.read_text()) for f in v1)
+    except (OSError, ValueError):
+        return None
+    return quota / period if quota > 0 and period > 0 else None
+
+
+def resolve_ranks(ranks: int) -> int:
+    """``ranks`` as asked, or :func:`machine_cores` for 0 (``case.ranks = 0``, ``--np auto``)."""
+    return int(ranks) if ranks else machine_cores()
 
 
 def launcher_words(launcher: str | None, ranks: int, token: bool = False) -> list:
@@ -67,3 +110,9 @@ def reconstruct_new_times(case: Path) -> bool:
         return False
     run_utility(case, ["reconstructPar", "-newTimes"])
     return True
+
+
+def ranks_option(text: str) -> int:
+    """``--np`` (run-case, study): a whole number of MPI ranks, at least 1, or ``auto``: the
+    machine's cores (:func:`machine_cores`)."""
+    return machine_cores() if text.strip().lower() == "auto" else count(text)

@@ -61,8 +61,10 @@ def motion_checks_itself(case: Path) -> bool:
     ``whaleBlendedDisplacement`` with ``checkMotion yes`` (its default) prints the smallest cell
     volume and the largest non-orthogonality of every new mesh, in the words of OpenFOAM's own
     checks, before it moves the mesh; any other motion (the Laplacian) needs polyMesh's debug
-    switch for the log watch."""
+    switch for the log watch. A static mesh (``staticFvMesh``) needs no check: True."""
     d = parsed_dict(case / "constant" / "dynamicMeshDict")
+    if d["dynamicFvMesh"] == "staticFvMesh":
+        return True
     if d["motionSolver"] != "whaleBlendedDisplacement":
         return False
     check = d["whaleBlendedDisplacementCoeffs"].get("checkMotion", "yes")

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from adapter.foam import symmetry
 from adapter.foam.logs import LogWatch
 from adapter.foamfiles import time_dirs
 from adapter.jsonfiles import finite  # the one cleaner (also reached from here)
@@ -38,7 +39,9 @@ def read_forces(case_dir) -> np.ndarray:
                 rows[nums[0]] = nums[:10]
     if not rows:
         return np.zeros((0, 10))
-    return np.array([rows[t] for t in sorted(rows)])
+    forces = np.array([rows[t] for t in sorted(rows)])
+    # a half-domain case: the whole body's (adapter/foam/symmetry.py)
+    return symmetry.whole_body_forces(forces) if symmetry.is_half(case_dir) else forces
 
 
 def summarise(case: Path, watch: LogWatch, record: dict, ranks: int, flow_wall: float,

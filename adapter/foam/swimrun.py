@@ -28,7 +28,7 @@ from adapter.errors import CaseError
 from adapter.foam import estimates as est
 from adapter.foam import loads as ld
 from adapter.foam.case import read_record, write_json
-from adapter.foam.dictionaries import parsed_dict
+from adapter.foam.dictionaries import hold_still, parsed_dict
 from adapter.foam.eta import PairEta, StopRule
 from adapter.foam.folders import asked_start, resume_time
 from adapter.foam.parallel import reconstruct_new_times
@@ -53,13 +53,7 @@ def prepare_gliding(case: Path) -> Path:
     record = read_record(case)
     record["static_whale"] = True
     write_json(glide / "adapter-case.json", record)
-    for zero in ("0", "0.orig"):
-        d = parsed_dict(glide / zero / "pointDisplacement")
-        d["boundaryField"]["whale"] = {"type": "fixedValue", "value": "uniform (0 0 0)"}
-        d.writeFile()
-    d = parsed_dict(glide / "constant" / "dynamicMeshDict")
-    d["dynamicFvMesh"] = "staticFvMesh"
-    d.writeFile()
+    hold_still(glide)
     return glide
 
 

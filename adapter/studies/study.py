@@ -44,9 +44,10 @@ import numpy as np
 from adapter.errors import AdapterError, UsageError
 from adapter.foam.case import CASE_RECORD, prepare_case, read_record, write_json
 from adapter.foam.mesh import mesh_case
+from adapter.foam.parallel import ranks_option
 from adapter.foam.parameters import case_parameters
 from adapter.foam.summary import finite
-from adapter.options import count, default_folder, in_file, number, out_folder, positive
+from adapter.options import default_folder, in_file, number, out_folder, positive
 from adapter.studies.study_analysis import analyse, case_done
 from adapter.studies.study_report import format_study, plot_accuracy_vs_cost, write_study_report
 
@@ -306,7 +307,9 @@ def register(subparsers) -> None:
                    "%(default)s)")
     p.add_argument("--parts", default=",".join(PARTS),
                    help="which parts to run: meshes, dt, speeds (default all)")
-    p.add_argument("--np", type=count, default=None, dest="ranks", help="MPI ranks per case")
+    p.add_argument("--np", type=ranks_option, default=None, dest="ranks",
+                   help="MPI ranks per case, or auto: the machine's cores (default: the "
+                        "scene's case.ranks; 0 there: auto)")
     p.add_argument("--quiet", "-q", action="store_true",
                    help="no progress and no report on stdout, only warnings and errors on stderr")
     p.set_defaults(func=_cmd_study)
