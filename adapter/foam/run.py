@@ -13,7 +13,6 @@ make an invalid mesh; that run ends with ``stopped`` saying so and an error. See
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import signal
@@ -24,7 +23,7 @@ from pathlib import Path
 from adapter import resources
 from adapter.coupling.protocol import TOKEN_ENV
 from adapter.errors import SolverRunError
-from adapter.foam.case import parallel_settings, read_record, write_json
+from adapter.foam.case import Case, parallel_settings
 from adapter.foam.dictionaries import parsed_dict, plugin_lib, set_decomposition
 from adapter.foam.eta import PairEta
 from adapter.foam.folders import (
@@ -112,12 +111,12 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     check_foam()
     t_start = time.perf_counter()
     case = Path(case_dir).resolve()
-    record = read_record(case)
+    record = Case(case).record
     ranks = int(ranks or record["parameters"]["ranks"])
     settings = parallel_settings(record, launcher=launcher, reconstruct=reconstruct)
     if not (case / "constant" / "polyMesh" / "owner").exists():
         mesh_case(case, ranks=ranks, launcher=settings["launcher"])
-        record = read_record(case)
+        record = Case(case).record
     # a mesh that misses or mangles the body is refused before any solver runs
     checked_mesh(case, record)
     restore_zero(case)
@@ -197,7 +196,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
         stopped = None
     if stopped:
         summary["stopped"] = stopped
-    write_json(case / SUMMARY, summary)
+    Case(case).save_summary(summary)
     if before:
         raise SolverRunError(f"{stopped}; see {case / SUMMARY}\nWhat to do: {MOTION_ADVICE}\n"
                              "OpenFOAM's message:\n    " + (fatal or "").replace("\n", "\n    ")
@@ -228,12 +227,12 @@ def _finished(case: Path, record: dict, ranks: int, reconstruct: bool, t_start: 
     if reconstruct:
         run_utility(case, ["reconstructPar", "-newTimes"])
     (case / "case.foam").touch()
-    if (case / SUMMARY).is_file():
-        return json.loads((case / SUMMARY).read_text())
+    if Case(case).has_summary:
+        return Case(case).summary
     watch = LogWatch(case / "log.pimpleFoam")
     watch.poll()
     summary = summarise(case, watch, record, ranks, 0.0, time.perf_counter() - t_start)
-    write_json(case / SUMMARY, summary)
+    Case(case).save_summary(summary)
     return summary
 
 
