@@ -1,5 +1,5 @@
 """The case object (adapter.foam.case.Case): its record read once and written by one method,
-its summary, its folders and logs."""
+its summary, its folders and logs; a run's outcome (adapter.foam.outcome)."""
 
 import json
 
@@ -7,6 +7,7 @@ import pytest
 
 from adapter.errors import CaseError
 from adapter.foam.case import Case
+from adapter.foam.outcome import ENDED, RunOutcome, Stop
 
 
 def test_the_record_is_read_once_and_saved_by_save(tmp_path):
@@ -44,3 +45,14 @@ def test_the_summary_folders_and_logs(tmp_path):
     assert case.poly_mesh == tmp_path / "constant" / "polyMesh"
     assert case.control_dict == tmp_path / "system" / "controlDict"
     assert case / "0" == tmp_path / "0" and str(case.path) == str(tmp_path)
+
+
+def test_run_outcomes_say_what_stopped_the_run():
+    assert ENDED.message() is None and not ENDED.is_error
+    assert RunOutcome(Stop.CRITERION, "periodic").message() == "periodic"
+    watch = RunOutcome(Stop.MESH_WATCH, "the moved mesh is invalid (x)")
+    assert watch.is_error and watch.message() == "mesh watch: the moved mesh is invalid (x)"
+    check = RunOutcome(Stop.MOTION_CHECK, "face pyramids: 2 faces", 0.046875)
+    assert check.is_error and check.message(0.03125) == (
+        "mesh watch: the mesh at t = 0.046875 s would be invalid (face pyramids: 2 faces); "
+        "stopped before moving it; the last written time 0.03125 s is valid")

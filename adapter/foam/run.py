@@ -19,6 +19,7 @@ import signal
 import subprocess
 import time
 from pathlib import Path
+from typing import NoReturn
 
 from adapter import resources
 from adapter.coupling.protocol import TOKEN_ENV
@@ -38,6 +39,7 @@ from adapter.foam.folders import (
 )
 from adapter.foam.logs import LogWatch, Progress, fatal_error, motion_check_stop
 from adapter.foam.mesh import checked_mesh, mesh_case
+from adapter.foam.outcome import ENDED, RunOutcome, Stop
 from adapter.foam.parallel import parallel_command
 from adapter.foam.stepserver import start_server, stop_server
 from adapter.foam.summary import SUMMARY, summarise
@@ -150,7 +152,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
         env[TOKEN_ENV] = token
     solver = solver_command(case)
     server = None
-    stopped = None
+    outcome = ENDED
     watch = LogWatch(case / "log.pimpleFoam")
     try:
         if ranks > 1 and from_ranks and ranks_latest is not None:
@@ -169,17 +171,18 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
         if not static:
             server = start_server(case, record, host=host, port=port, token=token)
         t_flow = time.perf_counter()
-        rc, stopped = _run_watched(case, cmd, watch, record, start_time, end_time, progress,
+        rc, outcome = _run_watched(case, cmd, watch, record, start_time, end_time, progress,
                                    stop_when, env=env, eta=eta)
         flow_wall = time.perf_counter() - t_flow
     finally:
         stop_server(server)
-    before = None
+    fatal = None
     if rc != 0:
         fatal = fatal_error((case / "log.pimpleFoam").read_text(errors="replace"))
-        before = motion_check_stop(fatal)
-        if before is None:
-            _raise_failed(case, rc, stopped, watch, fatal)
+        checked = motion_check_stop(fatal)
+        if checked is None:
+            _raise_failed(case, rc, outcome.message(), watch, fatal)
+        outcome = checked
         # the mesh motion's own check stopped the run at a step's mesh update, before the
         # mesh moved: that step never ran, every written time holds a valid mesh
         watch.drop_unfinished_step()
@@ -187,17 +190,13 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
         run_utility(case, ["reconstructPar", "-newTimes"])
     (case / "case.foam").touch()
     summary = summarise(case, watch, record, ranks, flow_wall, time.perf_counter() - t_start)
-    if before:
-        stopped = (f"mesh watch: the mesh at t = {before[0]:.12g} s would be invalid "
-                   f"({before[1]}); stopped before moving it; the last written time "
-                   f"{resume_time(case):.12g} s is valid")
-    elif stopped and not stopped.startswith("mesh watch"):
-        summary["stopped_because"] = stopped
-        stopped = None
+    if outcome.kind is Stop.CRITERION and outcome.reason:
+        summary["stopped_because"] = outcome.reason
+    stopped = outcome.message(resume_time(case)) if outcome.is_error else None
     if stopped:
         summary["stopped"] = stopped
     Case(case).save_summary(summary)
-    if before:
+    if outcome.kind is Stop.MOTION_CHECK:
         raise SolverRunError(f"{stopped}; see {case / SUMMARY}\nWhat to do: {MOTION_ADVICE}\n"
                              "OpenFOAM's message:\n    " + (fatal or "").replace("\n", "\n    ")
                              + f"\n(see {case / 'log.pimpleFoam'})")
@@ -208,7 +207,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
 
 
 def _raise_failed(case: Path, rc: int, stopped: str | None, watch: LogWatch,
-                  fatal: str | None) -> None:
+                  fatal: str | None) -> NoReturn:
     """Raise the error of a failed solver run: the mesh watch's reason or the exit code, the
     first invalid-mesh line, OpenFOAM's own message (unless the watch had stopped it)."""
     what = stopped or f"pimpleFoam failed (exit code {rc})"
@@ -239,7 +238,7 @@ def _finished(case: Path, record: dict, ranks: int, reconstruct: bool, t_start: 
 def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_when=None,
                  env=None, eta=None):
     """Run the solver, follow its log; stop it (write now) when the mesh gets too distorted,
-    or when ``stop_when(case)`` gives a reason."""
+    or when ``stop_when(case)`` gives a reason. Returns (exit code, :class:`RunOutcome`)."""
     limit = float(record.get("max_non_orthogonality", 80.0))
     show = Progress(end_time, start_time, eta=eta) if progress else None
     stopped = None
@@ -260,7 +259,7 @@ def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_
                             f"(limit case.max_non_orthogonality = {limit:g})")
                     if watch.broken:
                         what = f"the moved mesh is invalid ({watch.broken})"
-                    stopped = f"mesh watch: {what}"
+                    stopped = RunOutcome(Stop.MESH_WATCH, what)
                     proc.send_signal(STOP_SIGNAL)
                 # asked every STOP_WHEN_STEPS new steps (not on a wall clock: a fast run
                 # would reach its end between two questions) and once more at the end
@@ -268,8 +267,9 @@ def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_
                 if stopped is None and stop_when and (
                         steps - asked_at >= STOP_WHEN_STEPS or rc is not None and steps > asked_at):
                     asked_at = steps
-                    stopped = stop_when(case)
-                    if stopped and rc is None:
+                    reason = stop_when(case)
+                    stopped = None if reason is None else RunOutcome(Stop.CRITERION, reason)
+                    if reason and rc is None:
                         proc.send_signal(STOP_SIGNAL)
                 if show:
                     show.show(watch)
@@ -283,4 +283,4 @@ def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_
     watch.poll()
     if show:
         show.show(watch, final=True)
-    return rc, stopped
+    return rc, stopped or ENDED
