@@ -116,30 +116,8 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     record = Case(case).record
     ranks = int(ranks or record["parameters"]["ranks"])
     settings = parallel_settings(record, launcher=launcher, reconstruct=reconstruct)
-    if not (case / "constant" / "polyMesh" / "owner").exists():
-        mesh_case(case, ranks=ranks, launcher=settings["launcher"])
-        record = Case(case).record
-    # a mesh that misses or mangles the body is refused before any solver runs
-    checked_mesh(case, record)
-    restore_zero(case)
-    asked = asked_start(case)
-    if asked is not None:
-        print(recompute_from(case, *asked))
-    if ranks > 1:
-        set_decomposition(case, ranks, settings["decomposition"])
-    static = bool(record.get("static_whale"))
-    if not static and not plugin_lib().is_file():
-        raise SolverRunError(f"the boundary condition library {plugin_lib()} is missing; build "
-                             f"it with `bash {resources.BUILD_SCRIPT}` (or point "
-                             "WHALE_PLUGIN_LIB at a built one)")
-    ranks_latest = processor_latest(case)
-    from_ranks = ranks_latest is not None and ranks_latest > serial_latest(case)
-    if ranks_latest is not None and from_ranks and (
-            ranks == 1 or len(processor_dirs(case)) != ranks):
-        # the latest times are in processor folders of another rank count: reconstruct them
-        trim_processor_times(case, ranks_latest)
-        run_utility(case, ["reconstructPar", "-newTimes"])
-        from_ranks = False
+    record = _ready(case, record, ranks, settings)
+    ranks_latest, from_ranks = _resume_point(case, ranks)
     start_time = resume_time(case)
     control = parsed_dict(case / "system" / "controlDict")
     end_time = float(control["endTime"])
@@ -150,10 +128,9 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     env.pop(TOKEN_ENV, None)
     if token:
         env[TOKEN_ENV] = token
-    solver = solver_command(case)
-    server = None
-    outcome = ENDED
+    cmd = solver_command(case)
     watch = LogWatch(case / "log.pimpleFoam")
+    server = None
     try:
         if ranks > 1 and from_ranks and ranks_latest is not None:
             # resume from the ranks' own latest time (a crash left it only there)
@@ -165,10 +142,8 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
         if ranks > 1:
             # the token reaches the ranks on other hosts through the environment (Open MPI's
             # -x), never a file
-            cmd = parallel_command(solver, ranks, settings["launcher"], token=bool(token))
-        else:
-            cmd = solver
-        if not static:
+            cmd = parallel_command(cmd, ranks, settings["launcher"], token=bool(token))
+        if not record.get("static_whale"):
             server = start_server(case, record, host=host, port=port, token=token)
         t_flow = time.perf_counter()
         rc, outcome = _run_watched(case, cmd, watch, record, start_time, end_time, progress,
@@ -176,6 +151,51 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
         flow_wall = time.perf_counter() - t_flow
     finally:
         stop_server(server)
+    return _conclude(case, rc, outcome, watch, record, ranks,
+                     bool(ranks > 1 and settings["reconstruct"]), (flow_wall, t_start))
+
+
+def _ready(case: Path, record: dict, ranks: int, settings: dict) -> dict:
+    """Make a prepared case ready to run: meshed (when it has no mesh), its mesh checked,
+    ``0`` restored, a user's start time taken, decomposed on ``ranks``; the record as it is
+    then. Refuses a coupled case without the plugin library."""
+    if not (case / "constant" / "polyMesh" / "owner").exists():
+        mesh_case(case, ranks=ranks, launcher=settings["launcher"])
+        record = Case(case).record
+    # a mesh that misses or mangles the body is refused before any solver runs
+    checked_mesh(case, record)
+    restore_zero(case)
+    asked = asked_start(case)
+    if asked is not None:
+        print(recompute_from(case, *asked))
+    if ranks > 1:
+        set_decomposition(case, ranks, settings["decomposition"])
+    if not record.get("static_whale") and not plugin_lib().is_file():
+        raise SolverRunError(f"the boundary condition library {plugin_lib()} is missing; build "
+                             f"it with `bash {resources.BUILD_SCRIPT}` (or point "
+                             "WHALE_PLUGIN_LIB at a built one)")
+    return record
+
+
+def _resume_point(case: Path, ranks: int) -> tuple[float | None, bool]:
+    """(the latest time all processor folders hold or None, whether the run continues from
+    them); times in processor folders of another rank count are reconstructed first."""
+    ranks_latest = processor_latest(case)
+    from_ranks = ranks_latest is not None and ranks_latest > serial_latest(case)
+    if ranks_latest is not None and from_ranks and (
+            ranks == 1 or len(processor_dirs(case)) != ranks):
+        # the latest times are in processor folders of another rank count: reconstruct them
+        trim_processor_times(case, ranks_latest)
+        run_utility(case, ["reconstructPar", "-newTimes"])
+        from_ranks = False
+    return ranks_latest, from_ranks
+
+
+def _conclude(case: Path, rc: int, outcome: RunOutcome, watch: LogWatch, record: dict,
+              ranks: int, reconstruct: bool, walls: tuple[float, float]) -> dict:
+    """After the solver: its failure raised, the summary written (with why the run stopped)
+    and returned; raises when the mesh stopped the run. ``walls``: (the flow's wall time,
+    the run's start on the clock)."""
     fatal = None
     if rc != 0:
         fatal = fatal_error((case / "log.pimpleFoam").read_text(errors="replace"))
@@ -186,10 +206,10 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
         # the mesh motion's own check stopped the run at a step's mesh update, before the
         # mesh moved: that step never ran, every written time holds a valid mesh
         watch.drop_unfinished_step()
-    if ranks > 1 and settings["reconstruct"]:
+    if reconstruct:
         run_utility(case, ["reconstructPar", "-newTimes"])
     (case / "case.foam").touch()
-    summary = summarise(case, watch, record, ranks, flow_wall, time.perf_counter() - t_start)
+    summary = summarise(case, watch, record, ranks, walls[0], time.perf_counter() - walls[1])
     if outcome.kind is Stop.CRITERION and outcome.reason:
         summary["stopped_because"] = outcome.reason
     stopped = outcome.message(resume_time(case)) if outcome.is_error else None
