@@ -85,15 +85,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         scene = scene.replace(case={"flipper_level": 0, "fluke_level": 0})
     case.mkdir(parents=True, exist_ok=True)
     shutil.copytree(TEMPLATE_DIR, case, dirs_exist_ok=True)
-    stl = case / "constant" / "triSurface" / "whale.stl"
-    surface.write(stl)
-    # the same triangles as three solids (body, flippers, flukes) for the loads' regions; a
-    # second file, as snappyHexMesh makes one patch per solid (whale_body, ...) of a
-    # multi-solid STL and the whale must stay one patch
-    surface.write_regions_stl(stl.with_name(REGIONS_STL))
-    # the flippers alone: snappyHexMesh's refinement region around them (case.flipper_level)
-    if surface.is_whale:
-        surface.write_regions_stl(stl.with_name(FLIPPERS_STL), only="flippers")
+    stl = _write_surfaces(case, surface)
     pts = np.asarray(surface.points)
     ranks = resolve_ranks(ranks if ranks is not None else scene.case.ranks)
     params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
@@ -112,6 +104,30 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     write_dictionaries(case, scene, params, static_whale, decomposition)
     if half:
         symmetry.write_half_domain(case)
+    Case(case).save(_case_record(scene, surface, params, scene_file, static_whale, half,
+                                 decomposition))
+    return params
+
+
+def _write_surfaces(case: Path, surface) -> Path:
+    """The whale's surface into ``constant/triSurface/``: ``whale.stl``, its regions and the
+    flippers alone; returns the path of whale.stl."""
+    stl = case / "constant" / "triSurface" / "whale.stl"
+    surface.write(stl)
+    # the same triangles as three solids (body, flippers, flukes) for the loads' regions; a
+    # second file, as snappyHexMesh makes one patch per solid (whale_body, ...) of a
+    # multi-solid STL and the whale must stay one patch
+    surface.write_regions_stl(stl.with_name(REGIONS_STL))
+    # the flippers alone: snappyHexMesh's refinement region around them (case.flipper_level)
+    if surface.is_whale:
+        surface.write_regions_stl(stl.with_name(FLIPPERS_STL), only="flippers")
+    return stl
+
+
+def _case_record(scene, surface, params: CaseParameters, scene_file, static_whale: bool,
+                 half: bool, decomposition: str) -> dict:
+    """What prepare_case records about the case (``adapter-case.json``)."""
+    pts = np.asarray(surface.points)
     # a body without the whale's landmarks is all body: its "tail base" lies past its end
     tail_base_s = float(surface.s[surface.landmarks["tail_base"]]) if surface.is_whale else 2.0
     st = scene.stroke
@@ -119,7 +135,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         ramp = scene.rigid.ramp_cycles * scene.period_s
     else:
         ramp = (st.ramp_cycles if st.reversal == "smooth" else st.fluke_ramp) * scene.period_s
-    record = {
+    return {
         "scene_file": str(Path(scene_file).resolve()) if scene_file else None,
         # the start-up discarded from the figures: the ramp, at least one cycle
         "ramp_s": max(ramp, scene.period_s),
@@ -142,8 +158,6 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
                      "parallel_meshing": scene.case.parallel_meshing,
                      "reconstruct": scene.case.reconstruct},
     }
-    Case(case).save(record)
-    return params
 
 
 #: how far a mesh file's own length may differ from geometry.length_m
