@@ -11,6 +11,12 @@ import json
 import math
 from pathlib import Path
 
+#: a case's record: what prepare_case recorded about it (scene, derived numbers, mesh); the
+#: case object is :class:`adapter.foam.case.Case`, the names are here for the rooms below it
+CASE_RECORD = "adapter-case.json"
+#: a case's summary: the figures of its run (:mod:`adapter.foam.summary`)
+CASE_SUMMARY = "adapter-summary.json"
+
 
 def finite(obj):
     """``obj`` with every NaN or infinite float, nested ones included, as None."""

@@ -26,7 +26,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from adapter.foam.case import prepare_case, read_record  # noqa: E402
+from adapter.foam.case import Case, prepare_case  # noqa: E402
 from adapter.foam.mesh import mesh_case  # noqa: E402
 from adapter.foam.run import run_case  # noqa: E402
 from adapter.jsonfiles import write_json  # noqa: E402
@@ -60,7 +60,7 @@ def bench(scene, out: Path, ranks: list, domains: list, writes: int) -> list:
                                     writes * scene.period_s / scene.case.writes_per_cycle})
             prepare_case(s, base, ranks=1)
             mesh_case(base)
-        record = read_record(base)
+        record = Case(base).record
         if domain == "half" and not record.get("symmetry_plane"):
             print("half: the whale or its stroke is not mirror-symmetric; the full domain only",
                   flush=True)

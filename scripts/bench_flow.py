@@ -39,7 +39,7 @@ sys.path.insert(0, str(ROOT))
 from adapter.coupling.store import time_name  # noqa: E402
 from adapter.errors import CaseError  # noqa: E402
 from adapter.foam import loads as ld  # noqa: E402
-from adapter.foam.case import read_record  # noqa: E402
+from adapter.foam.case import CASE_RECORD, Case  # noqa: E402
 from adapter.foam.dictionaries import parsed_dict, plugin_lib  # noqa: E402
 from adapter.foam.stepserver import start_server, stop_server  # noqa: E402
 from adapter.foam.tools import foam_env  # noqa: E402
@@ -60,7 +60,7 @@ def copy_at(case: Path, time: str, dst: Path, steps: int) -> float:
     """A copy of ``case`` that starts at written time ``time`` and runs ``steps`` steps;
     the end time."""
     dst.mkdir(parents=True)
-    for name in ("system", "constant", time, "adapter-case.json"):
+    for name in ("system", "constant", time, CASE_RECORD):
         src = case / name
         (shutil.copytree if src.is_dir() else shutil.copy)(src, dst / name)
     (dst / "adapter").mkdir()
@@ -113,7 +113,7 @@ def set_pcorr(case: Path, entries: dict) -> None:
 def run(case: Path, coupled: bool) -> dict:
     """pimpleFoam in ``case`` (with the step-server when ``coupled``); CPU s per step and,
     from the loads function object, the mean Fx and power over the run."""
-    server = start_server(case, read_record(case)) if coupled else None
+    server = start_server(case, Case(case).record) if coupled else None
     try:
         with open(case / "log.pimpleFoam", "w") as log:
             rc = subprocess.run(["pimpleFoam"], cwd=case, stdout=log, stderr=subprocess.STDOUT,
@@ -141,7 +141,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(ROOT / "out" / "bench-flow.json"))
     args = ap.parse_args(argv)
     case = Path(args.case).resolve()
-    if not (case / "adapter-case.json").is_file():
+    if not Case(case).has_record:
         ap.error(f"{case} is not a prepared coupled case: run `make run-case` first, or give "
                  "--case")
     times = [p.name for t, p in time_dirs(case) if t > 0]

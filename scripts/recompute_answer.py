@@ -15,18 +15,18 @@ fields stay in CASE's time folders), the rest is.
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import sys
 from pathlib import Path
 
 from adapter.errors import CaseError
 from adapter.foam import loads as ld
+from adapter.foam.case import CASE_RECORD, Case
 from adapter.foam.summary import SUMMARY, format_summary
 from adapter.foam.swimrun import COST_ROWS, GLIDING, answer
 
 #: what the answer reads, relative to the case (and to its gliding folder)
-READ = ("adapter-case.json", SUMMARY, "system/controlDict", "constant/triSurface",
+READ = (CASE_RECORD, SUMMARY, "system/controlDict", "constant/triSurface",
         "postProcessing/loads", "postProcessing/forces")
 
 
@@ -58,7 +58,7 @@ def main(argv=None) -> int:
         return 2
     if args.copy_to:
         case = light_copy(case, args.copy_to)
-    rec = json.loads((case / "adapter-case.json").read_text())
+    rec = Case(case).record
     period = float(rec["period_s"])
     glide = case / GLIDING
     data = ld.read_loads(glide)
@@ -66,8 +66,7 @@ def main(argv=None) -> int:
         st = ld.cycle_stats(data["Time"], data["total:Fx"], data["total:P"], period, period)
         summary = answer(case, glide, rec, float(st.mean_fx[-1]),
                          float(rec.get("periodic_tolerance", 0.02)),
-                         json.loads((case / SUMMARY).read_text()),
-                         json.loads((glide / SUMMARY).read_text()))
+                         Case(case).summary, Case(glide).summary)
     except (CaseError, KeyError, IndexError) as exc:
         print(f"{case}: cannot recompute the answer: {exc}", file=sys.stderr)
         return 1

@@ -252,6 +252,24 @@ def oversized(sources: dict[str, str], rooms=SIZED_ROOMS) -> list[str]:
     return bad
 
 
+#: the limit for a function in adapter/ (issue 29), its body and docstring counted; no function
+#: is allowed over it (no allow-list)
+MAX_FUNCTION_LINES = 80
+
+
+def long_functions(sources: dict[str, str], rooms=SIZED_ROOMS) -> list[str]:
+    """Functions and methods over :data:`MAX_FUNCTION_LINES` lines in ``rooms``."""
+    bad = []
+    for name, source in sorted(sources.items()):
+        if any(name == r or name.startswith(r + ".") for r in rooms):
+            for node in ast.walk(ast.parse(source)):
+                if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                    size = node.end_lineno - node.lineno + 1
+                    if size > MAX_FUNCTION_LINES:
+                        bad.append(f"{name}.{node.name}: {size} lines")
+    return bad
+
+
 # -- the package ----------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
@@ -398,6 +416,14 @@ def test_modules_and_classes_are_small(sources):
     assert oversized(sources) == []
     big = {"adapter.foam.big": "class Big:\n" + "    x = 1\n" * MAX_CLASS_LINES}
     assert oversized(big) == ["adapter.foam.big.Big: 251 lines"]
+
+
+def test_functions_are_short(sources):
+    assert long_functions(sources) == []
+    body = "    x = 1\n" * (MAX_FUNCTION_LINES - 1)
+    assert long_functions({"adapter.foam.f": "def ok():\n" + body}) == []
+    big = "class C:\n  def big(self):\n" + body + "    y = 2\n"     # a method, 81 lines
+    assert long_functions({"adapter.foam.f": big}) == ["adapter.foam.f.big: 81 lines"]
 
 
 #: the limit for a test file (issue 29): a file over it holds more than one concern

@@ -21,6 +21,7 @@ from adapter.foam import logs as LG
 from adapter.foam import parameters as P
 from adapter.foam import run as R
 from adapter.foam import summary as S
+from adapter.foam.outcome import RunOutcome, Stop
 from adapter.foam.swimrun import prepare_gliding
 from adapter.scene import load_scene
 
@@ -405,8 +406,8 @@ def test_the_motion_checks_fatal_error_is_recognised(tmp_path):
         "The mesh of the latest written time, t = 0.03125 s, is valid: every mesh this run moved"
         " to passed this check (checkMesh -time 0.03125).", "",
         "    From function void Foam::meshMotionCheck::check(const Foam::pointField&)", ""])
-    assert LG.motion_check_stop(LG.fatal_error(log)) == (
-        0.046875, "face pyramids: 2 faces incorrectly oriented")
+    assert LG.motion_check_stop(LG.fatal_error(log)) == RunOutcome(
+        Stop.MOTION_CHECK, "face pyramids: 2 faces incorrectly oriented", 0.046875)
     assert LG.motion_check_stop(LG.fatal_error(log.replace("would be", "will be"))) is None
     assert LG.motion_check_stop(None) is None
     # the step the check stopped in never ran: the run ends at the one before

@@ -7,8 +7,8 @@ the thickness ratios docs/geometry.md gives."""
 import numpy as np
 import pytest
 
+from adapter.body.fins import foil_half_thickness
 from adapter.body.geometry import build_surface
-from adapter.body.procedural import foil_half_thickness
 from adapter.body.regions import FLIPPERS, FLUKES
 
 

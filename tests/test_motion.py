@@ -330,7 +330,7 @@ def test_the_motion_check_stops_the_run_before_the_mesh_inverts(tmp_path, ranks)
     fatal = LG.fatal_error(log)
     stop = LG.motion_check_stop(fatal)
     assert stop is not None, fatal
-    t, what = stop
+    t, what = stop.time, stop.reason
     assert t == float(invalid)
     # what OpenFOAM's own check says of that mesh, counted alike (over both ranks)
     assert "cell volumes: 15 cells of zero or negative volume" in what

@@ -33,16 +33,18 @@ from adapter.foam.parameters import CaseParameters, case_parameters
 #: the template case (foam_case/ of the repository, adapter/_foam_case in a wheel)
 TEMPLATE_DIR = resources.TEMPLATE_DIR
 #: what prepare_case records about the case (scene, derived numbers, mesh)
-CASE_RECORD = "adapter-case.json"
+CASE_RECORD = jsonfiles.CASE_RECORD
+#: the figures of the case's run (:mod:`adapter.foam.summary`)
+CASE_SUMMARY = jsonfiles.CASE_SUMMARY
 #: the regions surface the loads function object reads (constant/triSurface/)
 REGIONS_STL = "whale_regions.stl"
 #: the flippers' triangles alone (constant/triSurface/), snappyHexMesh's refinement region
 FLIPPERS_STL = "flippers.stl"
 FLUKE_BLADE_STL = "flukeBlade.stl"
 
-__all__ = ["CASE_RECORD", "FLIPPERS_STL", "FLUKE_BLADE_STL", "LENGTH_MISMATCH", "PLUGIN_LIB",
-           "REGIONS_STL", "SOCKET_NAME", "TEMPLATE_DIR", "check_length", "prepare_case",
-           "read_record", "write_json"]
+__all__ = ["CASE_RECORD", "CASE_SUMMARY", "Case", "FLIPPERS_STL", "FLUKE_BLADE_STL",
+           "LENGTH_MISMATCH", "PLUGIN_LIB", "REGIONS_STL", "SOCKET_NAME", "TEMPLATE_DIR",
+           "check_length", "prepare_case", "read_record", "write_json"]
 
 
 def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: bool = False,
@@ -83,15 +85,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         scene = scene.replace(case={"flipper_level": 0, "fluke_level": 0})
     case.mkdir(parents=True, exist_ok=True)
     shutil.copytree(TEMPLATE_DIR, case, dirs_exist_ok=True)
-    stl = case / "constant" / "triSurface" / "whale.stl"
-    surface.write(stl)
-    # the same triangles as three solids (body, flippers, flukes) for the loads' regions; a
-    # second file, as snappyHexMesh makes one patch per solid (whale_body, ...) of a
-    # multi-solid STL and the whale must stay one patch
-    surface.write_regions_stl(stl.with_name(REGIONS_STL))
-    # the flippers alone: snappyHexMesh's refinement region around them (case.flipper_level)
-    if surface.is_whale:
-        surface.write_regions_stl(stl.with_name(FLIPPERS_STL), only="flippers")
+    stl = _write_surfaces(case, surface)
     pts = np.asarray(surface.points)
     ranks = resolve_ranks(ranks if ranks is not None else scene.case.ranks)
     params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
@@ -110,6 +104,30 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     write_dictionaries(case, scene, params, static_whale, decomposition)
     if half:
         symmetry.write_half_domain(case)
+    Case(case).save(_case_record(scene, surface, params, scene_file, static_whale, half,
+                                 decomposition))
+    return params
+
+
+def _write_surfaces(case: Path, surface) -> Path:
+    """The whale's surface into ``constant/triSurface/``: ``whale.stl``, its regions and the
+    flippers alone; returns the path of whale.stl."""
+    stl = case / "constant" / "triSurface" / "whale.stl"
+    surface.write(stl)
+    # the same triangles as three solids (body, flippers, flukes) for the loads' regions; a
+    # second file, as snappyHexMesh makes one patch per solid (whale_body, ...) of a
+    # multi-solid STL and the whale must stay one patch
+    surface.write_regions_stl(stl.with_name(REGIONS_STL))
+    # the flippers alone: snappyHexMesh's refinement region around them (case.flipper_level)
+    if surface.is_whale:
+        surface.write_regions_stl(stl.with_name(FLIPPERS_STL), only="flippers")
+    return stl
+
+
+def _case_record(scene, surface, params: CaseParameters, scene_file, static_whale: bool,
+                 half: bool, decomposition: str) -> dict:
+    """What prepare_case records about the case (``adapter-case.json``)."""
+    pts = np.asarray(surface.points)
     # a body without the whale's landmarks is all body: its "tail base" lies past its end
     tail_base_s = float(surface.s[surface.landmarks["tail_base"]]) if surface.is_whale else 2.0
     st = scene.stroke
@@ -117,7 +135,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
         ramp = scene.rigid.ramp_cycles * scene.period_s
     else:
         ramp = (st.ramp_cycles if st.reversal == "smooth" else st.fluke_ramp) * scene.period_s
-    record = {
+    return {
         "scene_file": str(Path(scene_file).resolve()) if scene_file else None,
         # the start-up discarded from the figures: the ramp, at least one cycle
         "ramp_s": max(ramp, scene.period_s),
@@ -140,8 +158,6 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
                      "parallel_meshing": scene.case.parallel_meshing,
                      "reconstruct": scene.case.reconstruct},
     }
-    write_json(case / CASE_RECORD, record)
-    return params
 
 
 #: how far a mesh file's own length may differ from geometry.length_m
@@ -186,3 +202,103 @@ def read_record(case_dir) -> dict:
                         "`whale-adapter run-case`, so it is neither meshed nor run; choose "
                         "another (new or empty) --case to prepare a case with --scene/--preset")
     return json.loads(path.read_text())
+
+
+class Case:
+    """A case folder made by :func:`prepare_case` (after foamlib's ``FoamCase``): its path, its
+    folders and files as properties, its record (``adapter-case.json``, read once, written by
+    :meth:`save`) and its summary (``adapter-summary.json``).
+
+    >>> case = Case("out/case")
+    >>> case.record["parameters"]["ranks"]           # read on first use, CaseError if missing
+    >>> case.save({**case.record, "mesh": info})      # the one writer of the record
+    """
+
+    def __init__(self, path: str | os.PathLike) -> None:
+        self.path = Path(path)
+        self._record: dict | None = None
+
+    def __repr__(self) -> str:
+        return f"Case({str(self.path)!r})"
+
+    def __fspath__(self) -> str:
+        return str(self.path)
+
+    def __truediv__(self, other: str | os.PathLike) -> Path:
+        return self.path / other
+
+    # -- the record ---------------------------------------------------------------------------
+    @property
+    def record_file(self) -> Path:
+        return self.path / CASE_RECORD
+
+    @property
+    def has_record(self) -> bool:
+        return self.record_file.is_file()
+
+    @property
+    def record(self) -> dict:
+        """The record, read on first use (:func:`read_record`: a one-line
+        :class:`~adapter.errors.CaseError` when the folder has none)."""
+        if self._record is None:
+            self._record = read_record(self.path)
+        return self._record
+
+    def reload(self) -> dict:
+        """The record as the file holds it now (another step may have written it)."""
+        self._record = None
+        return self.record
+
+    def save(self, record: dict | None = None) -> None:
+        """Write ``record`` (None: the one held) as the case's record, and hold it."""
+        if record is not None:
+            self._record = record
+        write_json(self.record_file, self.record)
+
+    # -- the summary --------------------------------------------------------------------------
+    @property
+    def summary_file(self) -> Path:
+        return self.path / CASE_SUMMARY
+
+    @property
+    def has_summary(self) -> bool:
+        return self.summary_file.is_file()
+
+    @property
+    def summary(self) -> dict:
+        """The summary of the last run as written, ``{}`` when the case has none yet (read
+        each time: a run rewrites it)."""
+        return json.loads(self.summary_file.read_text()) if self.has_summary else {}
+
+    def save_summary(self, summary: dict) -> None:
+        write_json(self.summary_file, summary)
+
+    # -- folders, dictionaries, logs ----------------------------------------------------------
+    @property
+    def system(self) -> Path:
+        return self.path / "system"
+
+    @property
+    def constant(self) -> Path:
+        return self.path / "constant"
+
+    @property
+    def poly_mesh(self) -> Path:
+        return self.constant / "polyMesh"
+
+    @property
+    def tri_surface(self) -> Path:
+        return self.constant / "triSurface"
+
+    @property
+    def control_dict(self) -> Path:
+        return self.system / "controlDict"
+
+    def log(self, tool: str) -> Path:
+        """The log of an OpenFOAM tool run in the case (``log.<tool>``)."""
+        return self.path / f"log.{tool}"
+
+    @property
+    def logs(self) -> list[Path]:
+        """The tools' logs the case holds (``log.*``), by name."""
+        return sorted(p for p in self.path.glob("log.*") if p.is_file())

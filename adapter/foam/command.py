@@ -5,19 +5,12 @@ that asks for it (:mod:`adapter.foam.swimrun`)."""
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 from adapter.coupling.server import resolve_token
 from adapter.errors import CaseError, UsageError
-from adapter.foam.case import (
-    CASE_RECORD,
-    parallel_settings,
-    prepare_case,
-    read_record,
-    write_json,
-)
+from adapter.foam.case import CASE_RECORD, Case, parallel_settings, prepare_case
 from adapter.foam.dictionaries import DECOMPOSITIONS, choose_decomposition, parsed_dict
 from adapter.foam.folders import asked_start, resume_time
 from adapter.foam.mesh import mesh_case
@@ -94,7 +87,7 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
     exists = (case / "system" / "controlDict").exists()
     if exists:
         # refuses a folder not made by run-case before anything (blockMesh) touches it
-        record = read_record(case)
+        record = Case(case).record
         _check_same_case(case, record, args)
         asked = asked_start(case)
         t0 = resume_time(case) if asked is None else asked[0]
@@ -127,7 +120,7 @@ def _cmd_run_case(args: argparse.Namespace) -> int:
               f"{info.get('max_non_orthogonality')} deg, {info['mesh_s']} s")
         if args.mesh_only:
             return 0
-    record = read_record(case)
+    record = Case(case).record
     if record.get("gliding", False) and not record.get("static_whale"):
         summary = run_swim_and_glide(case, record, float(record["periodic_tolerance"]),
                                      ranks=args.ranks, launcher=args.launcher,
@@ -155,7 +148,7 @@ def _done(case: Path, t0: float, pair_too: bool = True) -> str | None:
     if t0 >= end - 0.5 * float(control["deltaT"]):
         return (f"it reached its end time ({end:.6g} s), nothing to run (to run it longer, "
                 "raise endTime in its system/controlDict)")
-    summary = json.loads((case / SUMMARY).read_text()) if (case / SUMMARY).is_file() else {}
+    summary = Case(case).summary
     if pair_too and summary.get("swimming_cost", {}).get("periodic_change", {}).get("reached"):
         return "its swimming run reached its periodic state, nothing to run"
     return None
@@ -189,7 +182,7 @@ def _record_decomposition(case: Path, record: dict, value: str) -> None:
     """--decomposition on a prepared case: recorded (a file copied in) for this and later runs."""
     record["parallel"] = parallel_settings(record, decomposition=choose_decomposition(
         case, value))
-    write_json(case / CASE_RECORD, record)
+    Case(case).save(record)
 
 
 def _recorded(record: dict) -> str:

@@ -50,7 +50,17 @@ def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool,
     step-server, and without a built plugin library the loads function object and the blended
     mesh motion are left out. ``decomposition``: as :func:`set_decomposition`'s ``method``.
     """
-    c = scene.case
+    _write_meshing(case, scene.case, p)
+    _write_control(case, scene, p, static_whale)
+    _write_mesh_motion(case, scene.case, p, static_whale)
+    set_decomposition(case, p.ranks, decomposition)
+    _write_physics(case, scene)
+    _write_initial_fields(case, scene, p, static_whale)
+
+
+def _write_meshing(case: Path, c, p: CaseParameters) -> None:
+    """blockMeshDict (the domain) and snappyHexMeshDict (refinement, layers) from the scene's
+    ``[case]`` ``c`` and the numbers ``p``."""
     d = parsed_dict(case / "system" / "blockMeshDict")
     for axis, lo, hi, n in zip("xyz", p.domain_min, p.domain_max, p.cells, strict=True):
         d[f"{axis}min"] = lo
@@ -84,6 +94,9 @@ def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool,
     lc["minThickness"] = c.first_layer_m / 3
     d.writeFile()
 
+
+def _write_control(case: Path, scene, p: CaseParameters, static_whale: bool) -> None:
+    """controlDict: the plugin library, the loads and forces function objects, the times."""
     d = parsed_dict(case / "system" / "controlDict")
     lib = f'"{plugin_lib()}"'
     if static_whale and not plugin_lib().is_file():
@@ -101,6 +114,10 @@ def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool,
     d["functions"]["forces"]["rhoInf"] = scene.flow.rho_kg_m3
     d.writeFile()
 
+
+def _write_mesh_motion(case: Path, c, p: CaseParameters, static_whale: bool) -> None:
+    """dynamicMeshDict: the blended mesh motion of the plugin, else the Laplacian."""
+    lib = f'"{plugin_lib()}"'
     d = parsed_dict(case / "constant" / "dynamicMeshDict")
     if c.mesh_motion == "blended" and (plugin_lib().is_file() or not static_whale):
         d["motionSolver"] = "whaleBlendedDisplacement"
@@ -116,8 +133,10 @@ def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool,
         d["motionSolverLibs"] = ['"libfvMotionSolvers.so"']
     d.writeFile()
 
-    set_decomposition(case, p.ranks, decomposition)
 
+def _write_physics(case: Path, scene) -> None:
+    """The viscosity (transportProperties) and the flow model (turbulenceProperties)."""
+    c = scene.case
     d = parsed_dict(case / "constant" / "transportProperties")
     d["nu"] = scene.flow.nu_m2_s
     d.writeFile()
@@ -127,6 +146,10 @@ def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool,
     d["RAS"]["RASModel"] = "kOmegaSST"
     d.writeFile()
 
+
+def _write_initial_fields(case: Path, scene, p: CaseParameters, static_whale: bool) -> None:
+    """0.orig: the inflow (ramped in or not), k and omega at the inlet, and the whale's
+    pointDisplacement (the step-server's boundary condition, or held still)."""
     zero = case / "0.orig"
     d = parsed_dict(zero / "U")
     d["Uinlet"] = _vector((scene.flow.speed_m_s, 0.0, 0.0))

@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 from adapter.foam.eta import PairEta, minutes, to_end_time
+from adapter.foam.outcome import RunOutcome, Stop
 
 #: the largest face non-orthogonality (deg), as checkMesh and the mesh-motion check print it
 NON_ORTHOGONALITY_RE = re.compile(r"Mesh non-orthogonality Max: ([-+0-9.eE]+)")
@@ -80,13 +81,13 @@ def fatal_error(log_text: str) -> str | None:
     return None
 
 
-def motion_check_stop(fatal: str | None) -> tuple | None:
-    """``(t, what)`` when OpenFOAM's fatal error (:func:`fatal_error`) is the mesh motion's
-    check: the mesh at time ``t`` (s) would have been invalid, ``what`` says how
-    (e.g. ``face pyramids: 2 faces incorrectly oriented``), and the run stopped before moving
-    it. None for any other error."""
+def motion_check_stop(fatal: str | None) -> RunOutcome | None:
+    """A :attr:`~adapter.foam.outcome.Stop.MOTION_CHECK` outcome when OpenFOAM's fatal error
+    (:func:`fatal_error`) is the mesh motion's check: the mesh at its ``time`` (s) would have
+    been invalid, its ``reason`` says how (e.g. ``face pyramids: 2 faces incorrectly
+    oriented``), and the run stopped before moving it. None for any other error."""
     m = _MOTION_CHECK_RE.search(fatal or "")
-    return (float(m.group(1)), m.group(2)) if m else None
+    return RunOutcome(Stop.MOTION_CHECK, m.group(2), float(m.group(1))) if m else None
 
 
 class LogWatch:

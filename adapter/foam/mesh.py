@@ -3,14 +3,13 @@ recorded as (cells, the whale patch, quality, the prism layers) in ``adapter-cas
 
 from __future__ import annotations
 
-import json
 import shutil
 import time
 from pathlib import Path
 
 from adapter.errors import AdapterError, MeshError
 from adapter.foam.bodymesh import body_check, refuse_if_bad
-from adapter.foam.case import CASE_RECORD, parallel_settings, read_record, write_json
+from adapter.foam.case import Case, parallel_settings
 from adapter.foam.dictionaries import set_decomposition
 from adapter.foam.folders import processor_dirs, restore_zero
 from adapter.foam.logs import parse_check_mesh
@@ -36,8 +35,9 @@ def mesh_case(case_dir, *, ranks: int | None = None, parallel: bool | None = Non
     """
     check_foam()
     case = Path(case_dir)
+    held = Case(case)
     # a folder not made by run-case is refused before blockMesh touches it
-    record = read_record(case)
+    record = held.record
     settings = parallel_settings(record, parallel_meshing=parallel, launcher=launcher)
     ranks = int(ranks or record["parameters"]["ranks"])
     on_ranks = ranks if settings["parallel_meshing"] and ranks > 1 else 1
@@ -54,14 +54,13 @@ def mesh_case(case_dir, *, ranks: int | None = None, parallel: bool | None = Non
     info.update(layer_record(case))
     if not info.get("whale_faces"):
         raise MeshError(f"the mesh misses the body: snappyHexMesh made no whale patch; see "
-                        f"{case / 'log.snappyHexMesh'} ({no_patch_hint(read_record(case))})")
+                        f"{case / 'log.snappyHexMesh'} ({no_patch_hint(held.reload())})")
     info["body_check"] = body_check(case, record, info.get("layers"))
     restore_zero(case)
-    record_path = case / CASE_RECORD
-    if record_path.is_file():
-        record = json.loads(record_path.read_text())
+    if held.has_record:
+        record = held.reload()
         record["mesh"] = info
-        write_json(record_path, record)
+        held.save(record)
     # recorded first, so that a run of this mesh is refused for the same reason
     refuse_if_bad(info["body_check"])
     return info
@@ -76,7 +75,7 @@ def checked_mesh(case: Path, record: dict) -> dict:
     if check is None:
         check = body_check(case, record, mesh.get("layers"))
         record = {**record, "mesh": {**mesh, "body_check": check}}
-        write_json(case / CASE_RECORD, record)
+        Case(case).save(record)
     refuse_if_bad(check)
     return check
 

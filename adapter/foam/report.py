@@ -18,7 +18,7 @@ from importlib import metadata
 from pathlib import Path
 
 from adapter.errors import SceneError
-from adapter.foam.case import CASE_RECORD
+from adapter.foam.case import Case
 from adapter.foam.estimates import plausibility_table
 from adapter.foam.summary import SUMMARY, SUMMARY_ROWS, summary_rows
 from adapter.reports.html_page import Section, write_page
@@ -61,10 +61,10 @@ def write_report(case, summary: dict | None = None, rows=None) -> Path:
     ``COST_ROWS``; default :data:`~adapter.foam.summary.SUMMARY_ROWS`). Returns the page's
     path."""
     case = Path(case)
+    held = Case(case)
     if summary is None:
-        summary = json.loads((case / SUMMARY).read_text())
-    record_path = case / CASE_RECORD
-    record = json.loads(record_path.read_text()) if record_path.is_file() else {}
+        summary = json.loads(held.summary_file.read_text())
+    record = held.record if held.has_record else {}
     sections = [_headline(summary, rows or SUMMARY_ROWS), _plausibility(summary),
                 _forces(case), _pictures(case),
                 _yplus(summary), _mesh(summary, record), _scene(record), versions_section(case)]

@@ -13,18 +13,18 @@ make an invalid mesh; that run ends with ``stopped`` saying so and an error. See
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import signal
 import subprocess
 import time
 from pathlib import Path
+from typing import NoReturn
 
 from adapter import resources
 from adapter.coupling.protocol import TOKEN_ENV
 from adapter.errors import SolverRunError
-from adapter.foam.case import parallel_settings, read_record, write_json
+from adapter.foam.case import Case, parallel_settings
 from adapter.foam.dictionaries import parsed_dict, plugin_lib, set_decomposition
 from adapter.foam.eta import PairEta
 from adapter.foam.folders import (
@@ -39,6 +39,7 @@ from adapter.foam.folders import (
 )
 from adapter.foam.logs import LogWatch, Progress, fatal_error, motion_check_stop
 from adapter.foam.mesh import checked_mesh, mesh_case
+from adapter.foam.outcome import ENDED, RunOutcome, Stop
 from adapter.foam.parallel import parallel_command
 from adapter.foam.stepserver import start_server, stop_server
 from adapter.foam.summary import SUMMARY, summarise
@@ -112,33 +113,11 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     check_foam()
     t_start = time.perf_counter()
     case = Path(case_dir).resolve()
-    record = read_record(case)
+    record = Case(case).record
     ranks = int(ranks or record["parameters"]["ranks"])
     settings = parallel_settings(record, launcher=launcher, reconstruct=reconstruct)
-    if not (case / "constant" / "polyMesh" / "owner").exists():
-        mesh_case(case, ranks=ranks, launcher=settings["launcher"])
-        record = read_record(case)
-    # a mesh that misses or mangles the body is refused before any solver runs
-    checked_mesh(case, record)
-    restore_zero(case)
-    asked = asked_start(case)
-    if asked is not None:
-        print(recompute_from(case, *asked))
-    if ranks > 1:
-        set_decomposition(case, ranks, settings["decomposition"])
-    static = bool(record.get("static_whale"))
-    if not static and not plugin_lib().is_file():
-        raise SolverRunError(f"the boundary condition library {plugin_lib()} is missing; build "
-                             f"it with `bash {resources.BUILD_SCRIPT}` (or point "
-                             "WHALE_PLUGIN_LIB at a built one)")
-    ranks_latest = processor_latest(case)
-    from_ranks = ranks_latest is not None and ranks_latest > serial_latest(case)
-    if ranks_latest is not None and from_ranks and (
-            ranks == 1 or len(processor_dirs(case)) != ranks):
-        # the latest times are in processor folders of another rank count: reconstruct them
-        trim_processor_times(case, ranks_latest)
-        run_utility(case, ["reconstructPar", "-newTimes"])
-        from_ranks = False
+    record = _ready(case, record, ranks, settings)
+    ranks_latest, from_ranks = _resume_point(case, ranks)
     start_time = resume_time(case)
     control = parsed_dict(case / "system" / "controlDict")
     end_time = float(control["endTime"])
@@ -149,10 +128,9 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     env.pop(TOKEN_ENV, None)
     if token:
         env[TOKEN_ENV] = token
-    solver = solver_command(case)
-    server = None
-    stopped = None
+    cmd = solver_command(case)
     watch = LogWatch(case / "log.pimpleFoam")
+    server = None
     try:
         if ranks > 1 and from_ranks and ranks_latest is not None:
             # resume from the ranks' own latest time (a crash left it only there)
@@ -164,41 +142,81 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
         if ranks > 1:
             # the token reaches the ranks on other hosts through the environment (Open MPI's
             # -x), never a file
-            cmd = parallel_command(solver, ranks, settings["launcher"], token=bool(token))
-        else:
-            cmd = solver
-        if not static:
+            cmd = parallel_command(cmd, ranks, settings["launcher"], token=bool(token))
+        if not record.get("static_whale"):
             server = start_server(case, record, host=host, port=port, token=token)
         t_flow = time.perf_counter()
-        rc, stopped = _run_watched(case, cmd, watch, record, start_time, end_time, progress,
+        rc, outcome = _run_watched(case, cmd, watch, record, start_time, end_time, progress,
                                    stop_when, env=env, eta=eta)
         flow_wall = time.perf_counter() - t_flow
     finally:
         stop_server(server)
-    before = None
+    return _conclude(case, rc, outcome, watch, record, ranks,
+                     bool(ranks > 1 and settings["reconstruct"]), (flow_wall, t_start))
+
+
+def _ready(case: Path, record: dict, ranks: int, settings: dict) -> dict:
+    """Make a prepared case ready to run: meshed (when it has no mesh), its mesh checked,
+    ``0`` restored, a user's start time taken, decomposed on ``ranks``; the record as it is
+    then. Refuses a coupled case without the plugin library."""
+    if not (case / "constant" / "polyMesh" / "owner").exists():
+        mesh_case(case, ranks=ranks, launcher=settings["launcher"])
+        record = Case(case).record
+    # a mesh that misses or mangles the body is refused before any solver runs
+    checked_mesh(case, record)
+    restore_zero(case)
+    asked = asked_start(case)
+    if asked is not None:
+        print(recompute_from(case, *asked))
+    if ranks > 1:
+        set_decomposition(case, ranks, settings["decomposition"])
+    if not record.get("static_whale") and not plugin_lib().is_file():
+        raise SolverRunError(f"the boundary condition library {plugin_lib()} is missing; build "
+                             f"it with `bash {resources.BUILD_SCRIPT}` (or point "
+                             "WHALE_PLUGIN_LIB at a built one)")
+    return record
+
+
+def _resume_point(case: Path, ranks: int) -> tuple[float | None, bool]:
+    """(the latest time all processor folders hold or None, whether the run continues from
+    them); times in processor folders of another rank count are reconstructed first."""
+    ranks_latest = processor_latest(case)
+    from_ranks = ranks_latest is not None and ranks_latest > serial_latest(case)
+    if ranks_latest is not None and from_ranks and (
+            ranks == 1 or len(processor_dirs(case)) != ranks):
+        # the latest times are in processor folders of another rank count: reconstruct them
+        trim_processor_times(case, ranks_latest)
+        run_utility(case, ["reconstructPar", "-newTimes"])
+        from_ranks = False
+    return ranks_latest, from_ranks
+
+
+def _conclude(case: Path, rc: int, outcome: RunOutcome, watch: LogWatch, record: dict,
+              ranks: int, reconstruct: bool, walls: tuple[float, float]) -> dict:
+    """After the solver: its failure raised, the summary written (with why the run stopped)
+    and returned; raises when the mesh stopped the run. ``walls``: (the flow's wall time,
+    the run's start on the clock)."""
+    fatal = None
     if rc != 0:
         fatal = fatal_error((case / "log.pimpleFoam").read_text(errors="replace"))
-        before = motion_check_stop(fatal)
-        if before is None:
-            _raise_failed(case, rc, stopped, watch, fatal)
+        checked = motion_check_stop(fatal)
+        if checked is None:
+            _raise_failed(case, rc, outcome.message(), watch, fatal)
+        outcome = checked
         # the mesh motion's own check stopped the run at a step's mesh update, before the
         # mesh moved: that step never ran, every written time holds a valid mesh
         watch.drop_unfinished_step()
-    if ranks > 1 and settings["reconstruct"]:
+    if reconstruct:
         run_utility(case, ["reconstructPar", "-newTimes"])
     (case / "case.foam").touch()
-    summary = summarise(case, watch, record, ranks, flow_wall, time.perf_counter() - t_start)
-    if before:
-        stopped = (f"mesh watch: the mesh at t = {before[0]:.12g} s would be invalid "
-                   f"({before[1]}); stopped before moving it; the last written time "
-                   f"{resume_time(case):.12g} s is valid")
-    elif stopped and not stopped.startswith("mesh watch"):
-        summary["stopped_because"] = stopped
-        stopped = None
+    summary = summarise(case, watch, record, ranks, walls[0], time.perf_counter() - walls[1])
+    if outcome.kind is Stop.CRITERION and outcome.reason:
+        summary["stopped_because"] = outcome.reason
+    stopped = outcome.message(resume_time(case)) if outcome.is_error else None
     if stopped:
         summary["stopped"] = stopped
-    write_json(case / SUMMARY, summary)
-    if before:
+    Case(case).save_summary(summary)
+    if outcome.kind is Stop.MOTION_CHECK:
         raise SolverRunError(f"{stopped}; see {case / SUMMARY}\nWhat to do: {MOTION_ADVICE}\n"
                              "OpenFOAM's message:\n    " + (fatal or "").replace("\n", "\n    ")
                              + f"\n(see {case / 'log.pimpleFoam'})")
@@ -209,7 +227,7 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
 
 
 def _raise_failed(case: Path, rc: int, stopped: str | None, watch: LogWatch,
-                  fatal: str | None) -> None:
+                  fatal: str | None) -> NoReturn:
     """Raise the error of a failed solver run: the mesh watch's reason or the exit code, the
     first invalid-mesh line, OpenFOAM's own message (unless the watch had stopped it)."""
     what = stopped or f"pimpleFoam failed (exit code {rc})"
@@ -228,19 +246,19 @@ def _finished(case: Path, record: dict, ranks: int, reconstruct: bool, t_start: 
     if reconstruct:
         run_utility(case, ["reconstructPar", "-newTimes"])
     (case / "case.foam").touch()
-    if (case / SUMMARY).is_file():
-        return json.loads((case / SUMMARY).read_text())
+    if Case(case).has_summary:
+        return Case(case).summary
     watch = LogWatch(case / "log.pimpleFoam")
     watch.poll()
     summary = summarise(case, watch, record, ranks, 0.0, time.perf_counter() - t_start)
-    write_json(case / SUMMARY, summary)
+    Case(case).save_summary(summary)
     return summary
 
 
 def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_when=None,
                  env=None, eta=None):
     """Run the solver, follow its log; stop it (write now) when the mesh gets too distorted,
-    or when ``stop_when(case)`` gives a reason."""
+    or when ``stop_when(case)`` gives a reason. Returns (exit code, :class:`RunOutcome`)."""
     limit = float(record.get("max_non_orthogonality", 80.0))
     show = Progress(end_time, start_time, eta=eta) if progress else None
     stopped = None
@@ -261,7 +279,7 @@ def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_
                             f"(limit case.max_non_orthogonality = {limit:g})")
                     if watch.broken:
                         what = f"the moved mesh is invalid ({watch.broken})"
-                    stopped = f"mesh watch: {what}"
+                    stopped = RunOutcome(Stop.MESH_WATCH, what)
                     proc.send_signal(STOP_SIGNAL)
                 # asked every STOP_WHEN_STEPS new steps (not on a wall clock: a fast run
                 # would reach its end between two questions) and once more at the end
@@ -269,8 +287,9 @@ def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_
                 if stopped is None and stop_when and (
                         steps - asked_at >= STOP_WHEN_STEPS or rc is not None and steps > asked_at):
                     asked_at = steps
-                    stopped = stop_when(case)
-                    if stopped and rc is None:
+                    reason = stop_when(case)
+                    stopped = None if reason is None else RunOutcome(Stop.CRITERION, reason)
+                    if reason and rc is None:
                         proc.send_signal(STOP_SIGNAL)
                 if show:
                     show.show(watch)
@@ -284,4 +303,4 @@ def _run_watched(case, cmd, watch, record, start_time, end_time, progress, stop_
     watch.poll()
     if show:
         show.show(watch, final=True)
-    return rc, stopped
+    return rc, stopped or ENDED

@@ -15,10 +15,13 @@ import numpy as np
 from adapter.foam import symmetry
 from adapter.foam.logs import LogWatch
 from adapter.foamfiles import time_dirs
-from adapter.jsonfiles import finite  # the one cleaner (also reached from here)
+from adapter.jsonfiles import (
+    CASE_SUMMARY,
+    finite,  # the one cleaner (also reached from here)
+)
 
 #: the run's summary, in the case folder
-SUMMARY = "adapter-summary.json"
+SUMMARY = CASE_SUMMARY
 
 
 def read_forces(case_dir) -> np.ndarray:

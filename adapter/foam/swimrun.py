@@ -20,21 +20,20 @@ reference drag; the drag, Fx and power also per body region (body, flippers, flu
 
 from __future__ import annotations
 
-import json
 import shutil
 from pathlib import Path
 
 from adapter.errors import CaseError
 from adapter.foam import estimates as est
 from adapter.foam import loads as ld
-from adapter.foam.case import read_record, write_json
+from adapter.foam.case import Case
 from adapter.foam.dictionaries import hold_still, parsed_dict
 from adapter.foam.eta import PairEta, StopRule
 from adapter.foam.folders import asked_start, resume_time
 from adapter.foam.parallel import reconstruct_new_times
 from adapter.foam.report import write_report
 from adapter.foam.run import run_case
-from adapter.foam.summary import SUMMARY, finite
+from adapter.foam.summary import finite
 from adapter.foamfiles import time_dirs
 
 GLIDING = "gliding"
@@ -50,9 +49,9 @@ def prepare_gliding(case: Path) -> Path:
     for name in ("system", "constant", "0.orig"):
         shutil.copytree(case / name, glide / name)
     shutil.copytree(case / "0.orig", glide / "0")
-    record = read_record(case)
+    record = Case(case).record
     record["static_whale"] = True
-    write_json(glide / "adapter-case.json", record)
+    Case(glide).save(record)
     hold_still(glide)
     return glide
 
@@ -115,12 +114,12 @@ def _run_unless_done(case: Path, criterion, options: dict) -> dict:
     """Run the case until ``criterion`` holds, unless its written loads already meet it (a
     rerun of a finished pair only recomputes the figures) and its controlDict asks for no
     other start (a user's ``startFrom startTime`` is a run from there)."""
-    summary_path = case / SUMMARY
-    reached = (criterion(case) if summary_path.is_file() and asked_start(case) is None
+    held = Case(case)
+    reached = (criterion(case) if held.has_summary and asked_start(case) is None
                else None)
     if reached:
         print(f"{case}: {reached} (already reached: not run again)")
-        return json.loads(summary_path.read_text())
+        return held.summary
     return run_case(case, stop_when=criterion, **options)
 
 
@@ -209,7 +208,7 @@ def answer(case: Path, glide: Path, rec: dict, drag: float, tolerance: float,
     summary["swimming_cost"] = finite(result)
     summary["yplus"] = finite(yplus_over_run(case))
     summary["yplus_gliding"] = finite(yplus_over_run(glide))
-    write_json(case / SUMMARY, summary)
+    Case(case).save_summary(summary)
     from adapter.reports.render import plot_forces
 
     plot_forces(data, gd, period, ramp, case / "forces.png", figures=summary["swimming_cost"])

@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from adapter.jsonfiles import CASE_RECORD
+
 #: the symmetry plane's patch
 PATCH = "symmetry"
 #: a mirrored point within this many body lengths of a surface point counts as matched
@@ -94,7 +96,7 @@ def write_half_domain(case: Path) -> None:
 
 def is_half(case) -> bool:
     """Whether the case (its adapter-case.json) is a half-domain case."""
-    path = Path(case) / "adapter-case.json"
+    path = Path(case) / CASE_RECORD
     if not path.is_file():
         return False
     return bool(json.loads(path.read_text()).get(RECORD_KEY, False))

@@ -34,7 +34,7 @@ from pathlib import Path
 
 from adapter.errors import AdapterError, ParaViewError
 from adapter.foamfiles import time_dirs
-from adapter.jsonfiles import write_json
+from adapter.jsonfiles import CASE_RECORD, CASE_SUMMARY, write_json
 from adapter.options import in_folder, non_negative, number, out_folder
 from adapter.vtkfiles import read_pvd
 
@@ -115,7 +115,7 @@ def pvd_times(pvd: Path) -> list:
 def read_period(path: Path, kind: str) -> float | None:
     """The stroke period T (s): adapter-case.json / adapter-summary.json of a case, summary.json
     of a dry-run; None when none of them has it."""
-    names = ("adapter-summary.json", "adapter-case.json") if kind == "case" else ("summary.json",)
+    names = (CASE_SUMMARY, CASE_RECORD) if kind == "case" else ("summary.json",)
     for name in names:
         f = path / name
         if f.is_file():
@@ -132,7 +132,7 @@ def read_rho(path: Path) -> float | None:
     """The case's water density (kg/m3): adapter-case.json's ``rho_kg_m3``, else the forces
     function's ``rhoInf`` in system/controlDict; None when neither has it."""
     try:
-        value = json.loads((path / "adapter-case.json").read_text()).get("rho_kg_m3")
+        value = json.loads((path / CASE_RECORD).read_text()).get("rho_kg_m3")
         if value:
             return float(value)
     except (OSError, json.JSONDecodeError, AttributeError, TypeError, ValueError):

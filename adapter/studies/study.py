@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from adapter.errors import AdapterError, UsageError
-from adapter.foam.case import CASE_RECORD, prepare_case, read_record, write_json
+from adapter.foam.case import Case, prepare_case, write_json
 from adapter.foam.mesh import mesh_case
 from adapter.foam.parallel import ranks_option
 from adapter.foam.parameters import case_parameters
@@ -204,13 +204,13 @@ def _copy_mesh(src: Path, dst: Path) -> None:
     for name in _LAYER_FIELDS:
         if (src / "0" / name).is_file():
             shutil.copy2(src / "0" / name, dst / "0" / name)
-    rec, base = read_record(dst), read_record(src)
+    rec, base = Case(dst).record, Case(src).record
     rec["mesh"] = dict(base.get("mesh", {}), copied_from=str(src))
-    write_json(dst / CASE_RECORD, rec)
+    Case(dst).save(rec)
 
 
 def _meshed(case: Path) -> bool:
-    return "mesh" in read_record(case) and (case / "constant" / "polyMesh" / "owner").is_file()
+    return "mesh" in Case(case).record and (case / "constant" / "polyMesh" / "owner").is_file()
 
 
 def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS,
@@ -261,7 +261,7 @@ def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS
                 else:
                     info = mesher(case)
                     log(f"{head}: meshed, {info.get('cells')} cells")
-            record = read_record(case)
+            record = Case(case).record
             runner(case, record, float(record["periodic_tolerance"]), ranks, progress)
             log(f"{head}: done ({time.perf_counter() - t0:.0f} s into the study)")
         except AdapterError as exc:

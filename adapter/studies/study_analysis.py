@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from adapter.errors import AdapterError
-from adapter.foam.case import read_record
+from adapter.foam.case import Case
 from adapter.foam.summary import SUMMARY
 from adapter.studies import gci as G
 
@@ -41,8 +41,8 @@ def case_result(case: Path) -> dict | None:
     """The figures of one finished pair (None when it has none)."""
     if not case_done(case):
         return None
-    s = json.loads((case / SUMMARY).read_text())
-    rec = read_record(case)
+    s = Case(case).summary
+    rec = Case(case).record
     cost = s["swimming_cost"]
     par = rec["parameters"]
     dt = float(par["delta_t"])

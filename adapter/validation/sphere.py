@@ -208,9 +208,9 @@ def run_variant(scene, scene_file: Path, case: Path, ddt: str, ranks: int) -> No
 
 def evaluate(data: dict, case: Path, quick: bool) -> CaseResult:
     """The checks of a run's loads columns: the last whole cycle's force and power."""
-    from adapter.foam.case import read_record
+    from adapter.foam.case import Case
 
-    record = read_record(case)
+    record = Case(case).record
     omega = 2 * math.pi / PERIOD_S
     t = data["Time"]
     window = (t > t[-1] - PERIOD_S + 1e-9) if not quick else np.ones_like(t, dtype=bool)

@@ -31,6 +31,7 @@ import os
 import sys
 import time
 
+from ogg_video import write_video  # beside this script (pvbatch puts its folder on sys.path)
 from paraview import simple as pvs
 
 #: camera directions (from the focal point towards the camera) in whale lengths, as the dry-run's
@@ -153,27 +154,6 @@ def recorded_camera(view):
             "parallel_scale": cam.GetParallelScale(), "view_angle": cam.GetViewAngle()}
 
 
-def write_video(pngs, path, fps):
-    """An Ogg Theora video of the PNG frames (VTK's own encoder, no ffmpeg needed)."""
-    from vtkmodules.vtkIOImage import vtkPNGReader
-    from vtkmodules.vtkIOOggTheora import vtkOggTheoraWriter
-
-    reader = vtkPNGReader()
-    writer = vtkOggTheoraWriter()
-    writer.SetFileName(path)
-    writer.SetRate(fps)
-    writer.SetQuality(2)
-    writer.SetInputConnection(reader.GetOutputPort())
-    for k, png in enumerate(pngs):
-        reader.SetFileName(png)
-        reader.Modified()
-        reader.Update()
-        if k == 0:
-            writer.Start()
-        writer.Write()
-    writer.End()
-
-
 def time_label(t):
     return f"{t:.6g}"
 
@@ -237,7 +217,16 @@ def build_case(args, view, meta):
     pvs.GetScalarBar(pvs.GetColorTransferFunction(p_name), view).WindowLocation = \
         "Lower Right Corner"
     sources = {"reader": "case.foam", "whale": "whale patch", "slice": "mid-plane slice y=0"}
+    adapter_times = draw_adapter_surface(args, view, sources)
+    meta.update({"colour_ranges": {"p": list(p_rng), "U_magnitude": list(u_rng)},
+                 "data_range": {"p": [p_lo, p_hi]}, "adapter_times": adapter_times,
+                 "p_unit": p_unit, "p_title": p_title, "rho_kg_m3": args.rho})
+    return times, bounds, sources
 
+
+def draw_adapter_surface(args, view, sources):
+    """The adapter's whale.pvd of the case (when there is one) as a faint wireframe over the
+    patch; its times (none without it)."""
     pvd = os.path.join(args.input, "adapter", "whale.pvd")
     adapter_times = []
     if os.path.isfile(pvd):
@@ -258,10 +247,7 @@ def build_case(args, view, meta):
         say(f"{pvd}: {len(adapter_times)} times (drawn as a wireframe over the patch)")
     else:
         say(f"no {pvd} (a static-whale case?): the adapter surface is not drawn")
-    meta.update({"colour_ranges": {"p": list(p_rng), "U_magnitude": list(u_rng)},
-                 "data_range": {"p": [p_lo, p_hi]}, "adapter_times": adapter_times,
-                 "p_unit": p_unit, "p_title": p_title, "rho_kg_m3": args.rho})
-    return times, bounds, sources
+    return adapter_times
 
 
 def build_surface(args, view, meta):
@@ -294,16 +280,7 @@ def main(argv):
     os.makedirs(out, exist_ok=True)
     wall = time.perf_counter()
     meta = {"input": args.input, "kind": args.kind, "size": list(args.size), "images": []}
-
-    view = pvs.CreateView("RenderView")
-    view.ViewSize = list(args.size)
-    view.OrientationAxesVisibility = 1
-    view.OrientationAxesLabelColor = BLACK
-    if hasattr(view, "UseColorPaletteForBackground"):
-        view.UseColorPaletteForBackground = 0
-    view.Background = WHITE
-    pvs.SetActiveView(view)
-
+    view = make_view(args)
     if args.kind == "case":
         times, bounds, sources = build_case(args, view, meta)
         title = "whale patch: p   slice y = 0: U magnitude   wireframe: adapter surface"
@@ -313,7 +290,46 @@ def main(argv):
     meta["sources"] = sources
     meta["times"] = times
     meta["whale_bounds"] = bounds
+    label(view, title)
 
+    scene = pvs.GetAnimationScene()
+    scene.UpdateAnimationUsingDataTimeSteps()
+    scene.PlayMode = "Snap To TimeSteps"
+
+    cameras = {name: camera_for(name, bounds, args.size) for name in VIEWS}
+    write_pictures(args, view, scene, cameras, out, meta)
+    if not args.no_animation:
+        write_animation(args, view, cameras, len(times), out, meta)
+
+    # the state opens on the angled view at the last picture's time
+    scene.AnimationTime = args.times[-1]
+    set_camera(view, cameras["angled"])
+    state = os.path.join(out, "whale.pvsm")
+    pvs.SaveState(state)
+    say(f"wrote {state}")
+    meta["state"] = "whale.pvsm"
+    meta["timings_s"]["total"] = time.perf_counter() - wall
+    with open(os.path.join(out, "report.json"), "w") as f:
+        json.dump(meta, f, indent=2, allow_nan=False)   # finite: ranges, times, bounds
+        f.write("\n")
+    say(f"done in {meta['timings_s']['total']:.1f} s")
+
+
+def make_view(args):
+    """The render view: the pictures' size, the axes, a white background."""
+    view = pvs.CreateView("RenderView")
+    view.ViewSize = list(args.size)
+    view.OrientationAxesVisibility = 1
+    view.OrientationAxesLabelColor = BLACK
+    if hasattr(view, "UseColorPaletteForBackground"):
+        view.UseColorPaletteForBackground = 0
+    view.Background = WHITE
+    pvs.SetActiveView(view)
+    return view
+
+
+def label(view, title):
+    """The time label (upper left) and the title (lower left)."""
     clock = pvs.AnnotateTime(registrationName="time label")
     clock.Format = "t = {time:.4g} s"
     clock_display = pvs.Show(clock, view)
@@ -326,11 +342,9 @@ def main(argv):
     heading_display.FontSize = 13
     heading_display.WindowLocation = "Lower Left Corner"
 
-    scene = pvs.GetAnimationScene()
-    scene.UpdateAnimationUsingDataTimeSteps()
-    scene.PlayMode = "Snap To TimeSteps"
 
-    cameras = {name: camera_for(name, bounds, args.size) for name in VIEWS}
+def write_pictures(args, view, scene, cameras, out, meta):
+    """A picture from every view at every asked time, recorded in ``meta``."""
     t_render = time.perf_counter()
     for t in args.times:
         scene.AnimationTime = t
@@ -345,45 +359,34 @@ def main(argv):
             say(f"wrote {path} ({time.perf_counter() - t1:.1f} s)")
     meta["timings_s"] = {"pictures": time.perf_counter() - t_render}
 
-    if not args.no_animation:
-        t1 = time.perf_counter()
-        frames = os.path.join(out, "animation")
-        os.makedirs(frames, exist_ok=True)
-        for old in os.listdir(frames):
-            if old.startswith("frame.") and old.endswith(".png"):
-                os.remove(os.path.join(frames, old))
-        set_camera(view, cameras[ANIMATION_VIEW])
-        pvs.SaveAnimation(os.path.join(frames, "frame.png"), view,
-                          ImageResolution=list(args.size), FrameWindow=[0, len(times) - 1])
-        pngs = sorted(os.path.join(frames, f) for f in os.listdir(frames)
-                      if f.startswith("frame.") and f.endswith(".png"))
-        meta["animation"] = {"folder": "animation", "pattern": "frame.%04d.png",
-                             "frames": len(pngs), "view": ANIMATION_VIEW,
-                             "camera": recorded_camera(view)}
-        say(f"wrote {len(pngs)} animation frames into {frames} "
-            f"({time.perf_counter() - t1:.1f} s)")
-        video = os.path.join(out, "animation.ogv")
-        try:
-            write_video(pngs, video, args.fps)
-        except (ImportError, RuntimeError) as exc:
-            say(f"no video ({exc}); the PNG series is there")
-        else:
-            meta["animation"]["video"] = os.path.basename(video)
-            say(f"wrote {video} ({len(pngs)} frames at {args.fps} per second)")
-        meta["timings_s"]["animation"] = time.perf_counter() - t1
 
-    # the state opens on the angled view at the last picture's time
-    scene.AnimationTime = args.times[-1]
-    set_camera(view, cameras["angled"])
-    state = os.path.join(out, "whale.pvsm")
-    pvs.SaveState(state)
-    say(f"wrote {state}")
-    meta["state"] = "whale.pvsm"
-    meta["timings_s"]["total"] = time.perf_counter() - wall
-    with open(os.path.join(out, "report.json"), "w") as f:
-        json.dump(meta, f, indent=2, allow_nan=False)   # finite: ranges, times, bounds
-        f.write("\n")
-    say(f"done in {meta['timings_s']['total']:.1f} s")
+def write_animation(args, view, cameras, n_times, out, meta):
+    """The animation's frames (and a video when it can be made), recorded in ``meta``."""
+    t1 = time.perf_counter()
+    frames = os.path.join(out, "animation")
+    os.makedirs(frames, exist_ok=True)
+    for old in os.listdir(frames):
+        if old.startswith("frame.") and old.endswith(".png"):
+            os.remove(os.path.join(frames, old))
+    set_camera(view, cameras[ANIMATION_VIEW])
+    pvs.SaveAnimation(os.path.join(frames, "frame.png"), view,
+                      ImageResolution=list(args.size), FrameWindow=[0, n_times - 1])
+    pngs = sorted(os.path.join(frames, f) for f in os.listdir(frames)
+                  if f.startswith("frame.") and f.endswith(".png"))
+    meta["animation"] = {"folder": "animation", "pattern": "frame.%04d.png",
+                         "frames": len(pngs), "view": ANIMATION_VIEW,
+                         "camera": recorded_camera(view)}
+    say(f"wrote {len(pngs)} animation frames into {frames} "
+        f"({time.perf_counter() - t1:.1f} s)")
+    video = os.path.join(out, "animation.ogv")
+    try:
+        write_video(pngs, video, args.fps)
+    except (ImportError, RuntimeError) as exc:
+        say(f"no video ({exc}); the PNG series is there")
+    else:
+        meta["animation"]["video"] = os.path.basename(video)
+        say(f"wrote {video} ({len(pngs)} frames at {args.fps} per second)")
+    meta["timings_s"]["animation"] = time.perf_counter() - t1
 
 
 if __name__ == "__main__":
