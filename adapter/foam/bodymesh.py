@@ -73,12 +73,13 @@ def patch_figures(case, patch: str = "whale") -> dict:
 def stl_figures(path) -> dict:
     """``area_m2`` and ``volume_m3`` (enclosed, whatever the orientation) of a closed STL."""
     from adapter.body.meshfile import read_surface
+    from adapter.body.planform import triangle_areas
 
     points, faces = read_surface(path)
     tri = np.concatenate([f if f.shape[1] == 3 else np.concatenate([f[:, :3], f[:, [0, 2, 3]]])
                           for f in faces])
     a, b, c = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
-    return {"area_m2": float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum()),
+    return {"area_m2": float(triangle_areas(points[tri]).sum()),
             "volume_m3": float(abs(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6.0)}
 
 

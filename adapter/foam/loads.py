@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from adapter.body.planform import triangle_areas
 from adapter.errors import CaseError
 from adapter.foam import symmetry
 from adapter.foamfiles import time_dirs
@@ -208,8 +209,7 @@ def body_dimensions(surface, tail_base_s: float) -> dict:
     sideways, do not count)."""
     p = surface.points
     tri = surface.triangles
-    a, b, c = p[tri[:, 0]], p[tri[:, 1]], p[tri[:, 2]]
-    area = float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
+    area = float(triangle_areas(p[tri]).sum())
     s = surface.s
     body = s < tail_base_s
     bins = np.clip((s[body] * 200).astype(int), 0, 199)
