@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from adapter.errors import SceneError
+from adapter.scenevalues import convert, describe
 
 PRESETS = ("default", "smoke", "fine")
 DATA_DIR = Path(__file__).parent / "data"
@@ -211,6 +212,26 @@ class Case:
 
 
 @dataclass(frozen=True)
+class Free:
+    """Free swimming (docs/free-swimming.md): the whale's forward speed from its forces."""
+
+    #: run-case runs the free whale after the tethered one, from its last cycle
+    enabled: bool = False
+    #: the force's mean over a period acts on this fraction of the mass early on (1: never)
+    light: float = field(default=0.2, metadata={"check": _within(0, 1, "(]")})
+    light_cycles: float = field(default=6.0, metadata={"check": _non_negative})   # at most
+    #: ... until that running mean is under this fraction of the gliding drag (0: never)
+    light_switch: float = field(default=0.005, metadata={"check": _non_negative})
+    #: stop: cycle-mean speed change over the last two cycles, cycle-mean Fx of the drag
+    speed_tolerance: float = field(default=0.005, metadata={"check": _positive})
+    fx_tolerance: float = field(default=0.01, metadata={"check": _positive})
+    cycles: float = field(default=10.0, metadata={"check": _positive})   # at most, after release
+    #: surge added mass, fraction of the mass (0: the prolate spheroid of the body's L and D)
+    added_mass: float = field(default=0.0, metadata={"check": _non_negative})
+    heave: bool = False        #: also free up and down (z), its own added mass
+
+
+@dataclass(frozen=True)
 class Scene:
     """Every parameter of a run. Build with :func:`load_scene`."""
 
@@ -225,6 +246,7 @@ class Scene:
     flow: Flow = field(default_factory=Flow)
     output: Output = field(default_factory=Output)
     case: Case = field(default_factory=Case)
+    free: Free = field(default_factory=Free)
     #: folder the scene file came from; relative paths in the scene resolve against it
     base_dir: str = "."
 
@@ -251,63 +273,9 @@ class Scene:
         return dataclasses.replace(self, **changes)
 
 
-def _describe(value) -> str:
-    return f"{value!r} ({type(value).__name__})"
-
-
-_EXPECTED = {str: "a string", bool: "true or false", dict: "a table"}   # taken as they are
-
-
-def _convert(value, annotation, path: str, meta: dict):
-    """Check one TOML value against a field's type and metadata, returning the value to store."""
-    kind = annotation if isinstance(annotation, type) else typing.get_origin(annotation)
-    if kind is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise SceneError(f"{path}: expected a number, got {_describe(value)}")
-        value = float(value)
-        if not math.isfinite(value):
-            raise SceneError(f"{path}: expected a finite number, got {value}")
-    elif kind is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise SceneError(f"{path}: expected a whole number, got {_describe(value)}")
-    elif kind in _EXPECTED:
-        if not isinstance(value, kind):
-            raise SceneError(f"{path}: expected {_EXPECTED[kind]}, got {_describe(value)}")
-        if isinstance(value, dict):
-            value = {k: _point(v, f"{path}.{k}") for k, v in value.items()}
-    elif kind is tuple and meta.get("vector"):
-        value = _point(value, path)
-    elif kind is tuple:
-        if not isinstance(value, (list, tuple)) or not all(
-            isinstance(v, int) and not isinstance(v, bool) for v in value
-        ):
-            raise SceneError(f"{path}: expected a list of whole numbers, got {_describe(value)}")
-        value = tuple(value)
-    choices = meta.get("choices")
-    if choices is not None and value not in choices:
-        raise SceneError(f"{path}: expected one of {', '.join(choices)}; got {value!r}")
-    check = meta.get("check")
-    if check is not None and not check(value):
-        allowed = f" {check.range}" if hasattr(check, "range") else ""   # _within's interval
-        raise SceneError(f"{path}: value {value!r} is out of range{allowed} (docs/scene.md)")
-    return value
-
-
-def _point(value, path: str):
-    if (
-        not isinstance(value, (list, tuple))
-        or len(value) != 3
-        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
-        or not all(math.isfinite(v) for v in value)
-    ):
-        raise SceneError(f"{path}: expected a point [x, y, z] of three finite numbers, "
-                         f"got {value!r}")
-    return tuple(float(v) for v in value)
-
-
 def _build(cls, table, path: str, start=None):
     if not isinstance(table, dict):
-        raise SceneError(f"{path}: expected a table, got {_describe(table)}")
+        raise SceneError(f"{path}: expected a table, got {describe(table)}")
     hints = typing.get_type_hints(cls)
     known = {f.name: f for f in dataclasses.fields(cls)}
     values = {}
@@ -319,7 +287,7 @@ def _build(cls, table, path: str, start=None):
         if dataclasses.is_dataclass(hints[key]):
             values[key] = _build(hints[key], value, sub, start=getattr(start, key, None))
         else:
-            values[key] = _convert(value, hints[key], sub, dict(known[key].metadata))
+            values[key] = convert(value, hints[key], sub, dict(known[key].metadata))
     obj = dataclasses.replace(start, **values) if start is not None else cls(**values)
     _check_relations(obj, path)
     return obj

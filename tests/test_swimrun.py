@@ -173,7 +173,7 @@ def test_run_case_runs_gliding_and_swimming_to_a_periodic_state(tmp_path):
                           str(scene), "--case", str(case)], capture_output=True, text=True,
                          timeout=600)
     assert res.returncode == 0, res.stderr[-3000:]
-    assert "Froude efficiency" in res.stdout and "gliding drag" in res.stdout
+    assert "tethered: Froude efficiency" in res.stdout and "gliding drag" in res.stdout
     s = json.loads((case / "adapter-summary.json").read_text())["swimming_cost"]
     # the report beside it (tests/test_report.py opens one in a browser)
     page = (case / "report.html").read_text()

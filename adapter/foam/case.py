@@ -151,6 +151,9 @@ def _case_record(scene, surface, params: CaseParameters, scene_file, static_whal
         "body_size_m": [float(v) for v in np.ptp(pts, axis=0)],
         "period_s": scene.period_s,
         "speed_m_s": scene.flow.speed_m_s,
+        # free swimming (adapter/foam/freerun.py) and the Strouhal number's amplitude
+        "free": asdict(scene.free),
+        "fluke_amplitude_m": scene.calibration.fluke_amplitude * float(surface.length),
         "max_non_orthogonality": scene.case.max_non_orthogonality,
         "surface_nodes": int(len(pts)),
         "parameters": asdict(params),

@@ -30,6 +30,7 @@ from adapter.foam.case import Case
 from adapter.foam.dictionaries import hold_still, parsed_dict
 from adapter.foam.eta import PairEta, StopRule
 from adapter.foam.folders import asked_start, resume_time
+from adapter.foam.freerun import FREE_ROWS, run_free
 from adapter.foam.parallel import reconstruct_new_times
 from adapter.foam.report import write_report
 from adapter.foam.run import run_case
@@ -103,7 +104,13 @@ def run_swim_and_glide(case: Path, scene_record: dict, tolerance: float, ranks=N
         return None
 
     s_summary = _run_unless_done(case, swim_periodic, {**options, "eta": PairEta(swim_rule)})
-    return answer(case, glide, scene_record, drag, tolerance, s_summary, g_summary)
+    summary = answer(case, glide, scene_record, drag, tolerance, s_summary, g_summary)
+    if scene_record.get("free", {}).get("enabled"):
+        summary["self_propelled"] = finite(run_free(
+            case, glide, drag, lambda c, rule: _run_unless_done(c, rule, {**options, "eta": None})))
+        Case(case).save_summary(summary)
+        write_report(case, summary, COST_ROWS)
+    return summary
 
 
 def _end_time(case: Path) -> float:
@@ -225,8 +232,10 @@ def _last_period_mean(data: dict, key: str, period: float) -> float:
     return float(st.mean_fx[-1]) if len(st.starts) else float("nan")
 
 
-#: the rows run-case prints after the pair (case.format_summary: label, key, format)
+#: the rows run-case prints after the pair (case.format_summary: label, key, format): the
+#: free whale's first when it ran, then the tethered pair's
 COST_ROWS = [
+    *FREE_ROWS,
     ("gliding drag", "swimming_cost/gliding_drag_N", "{:.0f} N"),
     ("  pressure part", "swimming_cost/gliding_drag_pressure_N", "{:.0f} N"),
     ("  viscous part", "swimming_cost/gliding_drag_viscous_N", "{:.0f} N"),
@@ -234,15 +243,17 @@ COST_ROWS = [
     ("  |Fy| / gliding drag", "swimming_cost/gliding_side_force_of_drag", est.side_force_text),
     ("van der Hoop et al. model, whole whale's area", "swimming_cost/van_der_hoop/drag_N",
      "{:.0f} N"),
-    ("swimming: mean Fx", "swimming_cost/swimming_mean_fx_N", "{:.0f} N"),
-    ("swimming: mean power into the water", "swimming_cost/swimming_mean_power_W", "{:.0f} W"),
+    ("tethered swimming: mean Fx", "swimming_cost/swimming_mean_fx_N", "{:.0f} N"),
+    ("tethered swimming: mean power into the water", "swimming_cost/swimming_mean_power_W",
+     "{:.0f} W"),
     *[row for name in ("body", "flippers", "flukes") for row in (
         (f"  {name}: gliding drag", f"swimming_cost/regions/{name}", est.drag_text),
         (f"  {name}: pressure part", f"swimming_cost/regions/{name}/gliding_pressure_share",
          "{:.0%}"),
         (f"  {name}: mean power", f"swimming_cost/regions/{name}/power_W", "{:.0f} W"))],
-    ("Froude efficiency", "swimming_cost/froude_efficiency", "{:.2f}"),
-    ("cost of transport", "swimming_cost/cost_of_transport_J_kg_m", "{:.3g} J/(kg m)"),
+    ("tethered: Froude efficiency", "swimming_cost/froude_efficiency", "{:.2f}"),
+    ("tethered: cost of transport", "swimming_cost/cost_of_transport_J_kg_m",
+     "{:.3g} J/(kg m)"),
     ("mass (enclosed volume x 1025 kg/m3)", "swimming_cost/mass_kg", "{:,.0f} kg"),
     ("cycles measured after the start-up", "swimming_cost/cycles_measured", "{}"),
     ("cycle-to-cycle change: Fx (of drag)", "swimming_cost/periodic_change/fx_of_gliding_drag",

@@ -1,0 +1,308 @@
+"""run-case's free whale: it finds its own speed (docs/free-swimming.md).
+
+After the tethered pair (adapter/foam/swimrun.py), with ``free.enabled``:
+
+3. **Free** (``<case>/free/``): the tethered run's last written time copied as the start, the
+   inflow and a uniform body force following the whale's frame (the step-server's
+   :class:`~adapter.motion.surge.SurgeFrame`, through the plugin's ``whaleFrameInletVelocity``
+   and ``whaleFrameAcceleration``), until the whale swims by itself: over the last two whole
+   cycles with the true mass the cycle-mean speed changes by less than
+   ``free.speed_tolerance`` and the last cycle's mean Fx is under ``free.fx_tolerance`` of the
+   gliding drag; at most ``free.cycles`` cycles.
+4. **Gliding at the self-propelled speed** (``<case>/gliding-free/``): the gliding run's last
+   time copied, its inflow set to U_sp, until steady: the drag the swimming whale overcomes.
+
+The figures at the self-propelled state go into ``adapter-summary.json`` under
+``"self_propelled"`` (:func:`free_figures`).
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from adapter.errors import CaseError
+from adapter.foam import loads as ld
+from adapter.foam import symmetry
+from adapter.foam.case import Case
+from adapter.foam.dictionaries import parsed_dict
+from adapter.foam.parallel import reconstruct_new_times
+from adapter.foamfiles import time_dirs
+from adapter.motion.surge import Inertia, Schedule, SurgeFrame
+
+FREE = "free"
+GLIDING_FREE = "gliding-free"
+#: the frame's log in a case's adapter/ folder: one row per served time
+FRAME_LOG = "frame.dat"
+FRAME_COLUMNS = ("Time", "Ux", "Uz", "ax", "az", "Fx", "Fz", "light")
+
+
+def inertia_of(record: dict) -> Inertia:
+    """The whale's mass (its enclosed volume at the water's density: neutrally buoyant) and
+    added masses (``free.added_mass`` of the mass, 0: the prolate spheroid's, Lamb)."""
+    body = record["body"]
+    rho = float(record.get("rho_kg_m3", ld.BODY_DENSITY))
+    inertia = Inertia.of_body(float(body["volume_m3"]), float(body["length_m"]),
+                              float(body["diameter_m"]), rho)
+    share = float(record.get("free", {}).get("added_mass", 0.0))
+    if share > 0:
+        inertia = Inertia(inertia.mass_kg, share * inertia.mass_kg, inertia.added_heave_kg)
+    return inertia
+
+
+def frame_of(case_dir) -> SurgeFrame | None:
+    """The step-server's frame for a case: a :class:`SurgeFrame` when its record says it is
+    released (``free_release_s``), else None (the fixed inflow)."""
+    record = Case(case_dir).record
+    if "free_release_s" not in record:
+        return None
+    free = record["free"]
+    schedule = Schedule(float(record["free_release_s"]), float(record["period_s"]),
+                        float(free["light"]), float(free["light_cycles"]),
+                        switch=float(free["light_switch"]),
+                        reference_N=float(record["free_reference_drag_N"]))
+    return SurgeFrame(float(record["speed_m_s"]), inertia_of(record), schedule,
+                      heave=bool(free["heave"]),
+                      force_scale=2.0 if record.get(symmetry.RECORD_KEY) else 1.0,
+                      log_path=Path(case_dir) / "adapter" / FRAME_LOG)
+
+
+def read_frame_log(case_dir) -> dict:
+    """The frame log's columns (:data:`FRAME_COLUMNS`), a later row winning for a time written
+    twice (a restart); ``{}`` when there is none."""
+    path = Path(case_dir) / "adapter" / FRAME_LOG
+    if not path.is_file():
+        return {}
+    rows = {}
+    for line in path.read_text().splitlines():
+        words = line.split()
+        if line.startswith("#") or len(words) != len(FRAME_COLUMNS):
+            continue
+        try:
+            values = [float(w) for w in words]
+        except ValueError:
+            continue
+        rows[values[0]] = values
+    if not rows:
+        return {}
+    data = np.array([rows[t] for t in sorted(rows)])
+    return {name: data[:, k] for k, name in enumerate(FRAME_COLUMNS)}
+
+
+# --- the cases ------------------------------------------------------------------------------
+
+def _copy_case_at(src: Path, dst: Path, extra=()) -> float:
+    """``dst``: src's system, constant, 0.orig and its latest written time (reconstructed
+    first), and ``extra`` files of src; returns that time."""
+    reconstruct_new_times(src)
+    times = [(t, p) for t, p in time_dirs(src) if t > 0]
+    if not times:
+        raise CaseError(f"{src} has no written time to start from; run it first")
+    t0, folder = times[-1]
+    dst.mkdir()
+    for name in ("system", "constant", "0.orig", folder.name, *extra):
+        if (src / name).is_dir():
+            shutil.copytree(src / name, dst / name)
+        elif (src / name).is_file():
+            (dst / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(src / name, dst / name)
+    return t0
+
+
+def _set_end(case: Path, end_time: float) -> None:
+    d = parsed_dict(case / "system" / "controlDict")
+    d["endTime"] = end_time
+    d["startFrom"] = "latestTime"
+    d.writeFile()
+
+
+def prepare_free(case: Path, drag: float) -> Path:
+    """``<case>/free``: the tethered swimming run at its latest time, released there; kept
+    when it exists. ``drag``: the gliding drag, the scale of the lighter mass's end."""
+    from adapter.foam.frame import use_frame_inflow
+
+    free = case / FREE
+    if (free / "system" / "controlDict").exists():
+        return free
+    record = Case(case).record
+    state = [f"adapter/{p.name}" for p in (case / "adapter").glob("state_*.npz")]
+    t0 = _copy_case_at(case, free, extra=state)
+    record["free_release_s"] = t0
+    record["free_reference_drag_N"] = float(drag)
+    Case(free).save(record)
+    period = float(record["period_s"])
+    _set_end(free, t0 + float(record["free"]["cycles"]) * period)
+    use_frame_inflow(free, (float(record["speed_m_s"]), 0.0, 0.0))
+    return free
+
+
+def prepare_gliding_at(glide: Path, speed: float) -> Path:
+    """``<case>/gliding-free``: the gliding run at its latest time with the inflow ``speed``,
+    run on for at most four periods (until steady); kept when it exists."""
+    out = glide.parent / GLIDING_FREE
+    if (out / "system" / "controlDict").exists():
+        return out
+    record = Case(glide).record
+    t0 = _copy_case_at(glide, out)
+    record["speed_m_s"] = speed
+    record["gliding_from_s"] = t0
+    Case(out).save(record)
+    _set_end(out, t0 + 4.0 * float(record["period_s"]))
+    u = time_dirs(out)[-1][1] / "U"
+    d = parsed_dict(u)
+    d["boundaryField"]["inlet"] = {"type": "fixedValue", "value": f"uniform ({speed!r} 0 0)"}
+    d.writeFile()
+    return out
+
+
+# --- when the whale swims by itself ----------------------------------------------------------
+
+def true_mass_cycles(case: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Start, mean speed and mean Fx of each whole cycle after the lighter mass gave way (the
+    true mass's cycles: the frame log's first row with light 0), from the frame log and
+    loads.dat."""
+    record = Case(case).record
+    period = float(record["period_s"])
+    frame, data = read_frame_log(case), ld.read_loads(case)
+    empty = np.array([]), np.array([]), np.array([])
+    if not frame or not data:
+        return empty
+    true = frame["Time"][(frame["light"] == 0) & (frame["Time"] > float(record["free_release_s"]))]
+    if not len(true):
+        return empty
+    first = float(true[0])
+    speed = ld.cycle_stats(frame["Time"], frame["Ux"], frame["Ux"], period, first)
+    force = ld.cycle_stats(data["Time"], data["total:Fx"], data["total:Fx"], period, first)
+    n = min(len(speed.starts), len(force.starts))
+    return speed.starts[:n], speed.mean_fx[:n], force.mean_fx[:n]
+
+
+def settled(case: Path, drag: float) -> str | None:
+    """The stop rule of the free run: a reason once the whale swims by itself, else None."""
+    free = Case(case).record["free"]
+    _, speed, fx = true_mass_cycles(case)
+    if len(speed) < 2:
+        return None
+    change = abs(speed[-1] - speed[-2]) / abs(speed[-1])
+    share = abs(fx[-1]) / abs(drag)
+    if change < float(free["speed_tolerance"]) and share < float(free["fx_tolerance"]):
+        return (f"self-propelled: cycle-mean speed {speed[-1]:.4g} m/s changed {change:.2%}, "
+                f"cycle-mean Fx {share:.2%} of the gliding drag")
+    return None
+
+
+def free_figures(free: Path, glide_sp: Path, tethered_drag: float) -> dict:
+    """The figures at the self-propelled state, over the last whole true-mass cycle."""
+    record = Case(free).record
+    period = float(record["period_s"])
+    starts, speed, fx = true_mass_cycles(free)
+    if not len(starts):
+        raise CaseError(f"{free}: no whole cycle with the true mass; raise free.cycles")
+    window = (starts[-1], starts[-1] + period)
+    data, gd = ld.read_loads(free), ld.read_loads(glide_sp)
+    t0 = float(Case(glide_sp).record["gliding_from_s"])
+    u_sp = float(speed[-1])
+
+    def swim_mean(column: str) -> float:
+        sel = (data["Time"] > window[0] + 1e-9) & (data["Time"] <= window[1] + 1e-9)
+        return float(data[column][sel].mean())
+
+    def glide_mean(column: str) -> float:
+        st = ld.cycle_stats(gd["Time"], gd[column], gd[column], period, t0 + period)
+        return float(st.mean_fx[-1]) if len(st.starts) else float("nan")
+
+    power, drag_sp = swim_mean("total:P"), glide_mean("total:Fx")
+    mass = inertia_of(record).mass_kg
+    flukes = ("whale.flukes:Fx" in data) and ("whale.flukes:P" in data)
+    body = "whale.body:Fx" in data and "whale.body:Fx" in gd
+    return {
+        "speed_m_s": u_sp,
+        "speed_change_last_two_cycles": float(abs(speed[-1] - speed[-2]) / u_sp)
+        if len(speed) > 1 else float("nan"),
+        "mean_fx_N": float(fx[-1]), "mean_fx_of_gliding_drag": float(fx[-1]) / tethered_drag,
+        "mean_power_W": power,
+        "cost_of_transport_J_kg_m": power / (mass * u_sp),
+        "gliding_drag_at_speed_N": drag_sp,
+        "quasi_propulsive_efficiency": drag_sp * u_sp / power,
+        "flukes_propulsive_efficiency": (-swim_mean("whale.flukes:Fx") * u_sp
+                                         / swim_mean("whale.flukes:P")) if flukes else None,
+        "strouhal": float(record["fluke_amplitude_m"]) / (period * u_sp),
+        "body_drag_swimming_N": swim_mean("whale.body:Fx") if body else None,
+        "body_drag_gliding_N": glide_mean("whale.body:Fx") if body else None,
+        "drag_augmentation": swim_mean("whale.body:Fx") / glide_mean("whale.body:Fx")
+        if body else None,
+        "cycles_true_mass": int(len(starts)),
+        "window_s": list(window),
+        "mass_kg": mass,
+        "added_surge_kg": inertia_of(record).added_surge_kg,
+        "release_s": float(record["free_release_s"]),
+    }
+
+
+def written_inlet_speed(case: Path) -> tuple[float, float]:
+    """(time, inlet x-velocity) at the latest written time, from OpenFOAM's own U field."""
+    t, folder = time_dirs(case)[-1]
+    value = parsed_dict(folder / "U")["boundaryField"]["inlet"]["value"]
+    return t, float(np.asarray(value.val if hasattr(value, "val") else value).ravel()[0])
+
+
+def glide_steady(period: float, tolerance: float, start_up: float):
+    """A gliding run's stop rule: the mean drag over a period changes by less than
+    ``tolerance`` from one period to the next, periods counted from ``start_up``."""
+    def rule(case: Path) -> str | None:
+        data = ld.read_loads(case)
+        if not data:
+            return None
+        st = ld.cycle_stats(data["Time"], data["total:Fx"], data["total:P"], period, start_up)
+        if len(st.starts) >= 2 and ld.is_periodic(st, st.mean_fx[-1], tolerance):
+            change = ld.periodic_change(st, st.mean_fx[-1])[0]
+            return f"steady: mean drag changed {change:.2%} over the last stroke period"
+        return None
+    return rule
+
+
+def run_free(case: Path, glide: Path, drag: float, runner) -> dict:
+    """Stages 3 and 4 (the module's docstring): the free whale, then gliding at its speed;
+    ``runner(case, rule)`` runs a case until ``rule`` says why to stop (swimrun's). Returns
+    :func:`free_figures`, with ``settled`` (the free run's stop rule held) and the two runs'
+    wall times."""
+    free = prepare_free(case, drag)
+    f_summary = runner(free, lambda c: settled(c, drag))
+    starts, speed, _ = true_mass_cycles(free)
+    if not len(speed):
+        raise CaseError(f"{free}: the free run ended before a whole cycle with the true mass; "
+                        "raise free.cycles")
+    glide_sp = prepare_gliding_at(glide, float(speed[-1]))
+    record = Case(glide_sp).record
+    period = float(record["period_s"])
+    g_summary = runner(glide_sp, glide_steady(period, float(record["periodic_tolerance"]),
+                                              float(record["gliding_from_s"]) + 0.5 * period))
+    figures = free_figures(free, glide_sp, drag)
+    figures["settled"] = settled(free, drag) is not None
+    figures["free_run"] = {k: f_summary.get(k) for k in ("steps", "flow_wall_s",
+                                                        "stopped_because")}
+    figures["gliding_at_speed_run"] = {k: g_summary.get(k) for k in ("steps", "flow_wall_s",
+                                                                    "stopped_because")}
+    return figures
+
+
+#: the rows run-case prints for the free whale (case.format_summary: label, key, format)
+FREE_ROWS = [
+    ("self-propelled speed U_sp (free run)", "self_propelled/speed_m_s", "{:.3f} m/s"),
+    ("  reached (speed and Fx within tolerance)", "self_propelled/settled", "{}"),
+    ("  cycle-mean Fx / gliding drag", "self_propelled/mean_fx_of_gliding_drag", "{:+.2%}"),
+    ("  speed change over the last two cycles", "self_propelled/speed_change_last_two_cycles",
+     "{:.2%}"),
+    ("free: mean power into the water", "self_propelled/mean_power_W", "{:.0f} W"),
+    ("free: cost of transport (mechanical)", "self_propelled/cost_of_transport_J_kg_m",
+     "{:.3g} J/(kg m)"),
+    ("free: gliding drag at U_sp", "self_propelled/gliding_drag_at_speed_N", "{:.0f} N"),
+    ("free: quasi-propulsive efficiency D_g U / P", "self_propelled/quasi_propulsive_efficiency",
+     "{:.2f}"),
+    ("free: flukes' propulsive efficiency", "self_propelled/flukes_propulsive_efficiency",
+     "{:.2f}"),
+    ("free: Strouhal number f A / U_sp", "self_propelled/strouhal", "{:.2f}"),
+    ("free: body's drag swimming / gliding", "self_propelled/drag_augmentation", "{:.2f}"),
+]

@@ -1,0 +1,201 @@
+"""Free swimming: the whale's own speed from its momentum balance (docs/free-swimming.md).
+
+The flow is solved in the whale's frame. The frame's velocity ``u_f`` is the velocity of the
+water far from the whale as the whale sees it (the inlet's velocity, ``(U, 0, 0)`` with ``U``
+the forward speed); the whale's own velocity is ``-u_f``. Newton's law for the whale,
+``m d(-u_f)/dt = F`` with ``F`` the water's force on it, gives along each free axis
+
+    m du_f/dt = -F
+
+The measured ``F`` holds the water's reaction to the frame's acceleration (the added mass
+``m_a``: ``F = G + m_a du_f/dt``, G the rest), so the same law is ``(m + m_a) du_f/dt = -G``.
+The flow step that measured ``F`` ran with the acceleration of the step before, so each step
+takes ``G = F - m_a a_prev`` and advances ``(m + m_a) du_f/dt = -G``: the explicit coupling of a
+light body with the added mass moved to the left, stable whatever m_a / m (an error in the
+estimate of m_a only lags the reaction by one step).
+
+Early on a lighter mass may speed the approach to the self-propelled state (``free.light``):
+the force's running mean over the last stroke period acts on ``light * (m + m_a)`` while the
+stroke's swing about that mean acts on the true ``m + m_a``, so the swing of the speed within a
+cycle stays that of the real whale. The true mass alone (``du_f/dt = -G / (m + m_a)``) takes
+over for good once that running mean is small (:class:`Schedule`), or ``light_cycles`` periods
+after the release at the latest.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+#: the axes a free whale may move along: surge (x) always, heave (z) when asked
+SURGE, HEAVE = 0, 2
+
+
+def spheroid_added_mass(length: float, diameter: float) -> tuple[float, float]:
+    """Added-mass coefficients (k1 along the axis, k2 across it) of a prolate spheroid of this
+    length and largest diameter, as fractions of its displaced mass (Lamb, Hydrodynamics,
+    section 373: k1 = a0 / (2 - a0), k2 = b0 / (2 - b0))."""
+    if not (length > diameter > 0):
+        raise ValueError(f"a prolate spheroid needs length > diameter > 0, got {length!r}, "
+                         f"{diameter!r}")
+    e = math.sqrt(1.0 - (diameter / length) ** 2)
+    log_term = math.log((1.0 + e) / (1.0 - e))
+    a0 = 2.0 * (1.0 - e * e) / e ** 3 * (0.5 * log_term - e)
+    b0 = 1.0 / (e * e) - (1.0 - e * e) / (2.0 * e ** 3) * log_term
+    return a0 / (2.0 - a0), b0 / (2.0 - b0)
+
+
+@dataclass(frozen=True)
+class Inertia:
+    """The whale's mass and its added masses along x (surge) and z (heave), kg."""
+
+    mass_kg: float
+    added_surge_kg: float
+    added_heave_kg: float
+
+    @classmethod
+    def of_body(cls, volume_m3: float, length_m: float, diameter_m: float,
+                density: float) -> Inertia:
+        """A neutrally buoyant whale of this enclosed volume; added masses from the prolate
+        spheroid of its length and largest diameter, on its own volume."""
+        k1, k2 = spheroid_added_mass(length_m, diameter_m)
+        mass = density * volume_m3
+        return cls(mass, k1 * mass, k2 * mass)
+
+    def added(self, axis: int) -> float:
+        return self.added_surge_kg if axis == SURGE else self.added_heave_kg
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """When the free whale's speed starts to follow its forces, and the lighter mass early on."""
+
+    release_s: float          #: the frame keeps its velocity until this time
+    period_s: float           #: the stroke period: the running mean's window
+    light: float = 1.0        #: the running mean's mass, fraction of m + m_a (1: none)
+    light_cycles: float = 0.0  #: at most this many stroke periods after the release
+    #: ... or until, a period or more after the release, the running mean of the force along x
+    #: is under ``switch`` times ``reference_N`` (0: no early end)
+    switch: float = 0.0
+    reference_N: float = 0.0
+
+    def light_until(self) -> float:
+        return self.release_s + self.light_cycles * self.period_s
+
+    def settles(self, t: float, mean_x: float) -> bool:
+        """Whether the lighter mass ends at ``t`` with this running mean along x."""
+        return (self.switch > 0 and t >= self.release_s + self.period_s
+                and abs(mean_x) < self.switch * self.reference_N)
+
+
+class SurgeFrame:
+    """The whale's frame for the step-server (adapter/coupling/frame.py's Frame).
+
+    Parameters
+    ----------
+    speed : the forward speed at the start (m/s): the frame's velocity is (speed, 0, 0).
+    inertia : :class:`Inertia`.
+    schedule : :class:`Schedule`.
+    heave : the whale also moves up and down (z) under its vertical force.
+    force_scale : the patch's share of the whole whale's force along x and z (2 on a half
+        domain, whose patch is half the whale).
+    log_path : a file that gets a row per new served time: time, the frame's velocity and
+        acceleration along x and z, the whole whale's force along x and z (N), and 1 while the
+        lighter mass acts (0 after); rows after a restored time are dropped at a restore.
+    """
+
+    def __init__(self, speed: float, inertia: Inertia, schedule: Schedule, heave: bool = False,
+                 force_scale: float = 1.0, log_path: Path | None = None):
+        self.inertia = inertia
+        self.schedule = schedule
+        self.axes = (SURGE, HEAVE) if heave else (SURGE,)
+        self.force_scale = float(force_scale)
+        self.t: float | None = None
+        self.velocity = np.array([float(speed), 0.0, 0.0])
+        self.acceleration = np.zeros(3)
+        self._means: deque = deque()   # (t, G along the free axes) over the last period
+        #: when the true mass took over (None: not yet)
+        self.true_from: float | None = None
+        self.log_path = log_path
+
+    # --- the Frame interface -------------------------------------------------------------
+
+    def answer(self, time: float, request):
+        """The frame at ``time`` from the REQUEST's forces (those of the step that ended at the
+        last served time); a first request (no forces: NaN) keeps the acceleration."""
+        from adapter.coupling.frame import FrameState
+
+        if self.t is None or time <= self.t or time <= self.schedule.release_s:
+            self.t = time if self.t is None else max(self.t, time)
+            return FrameState(self.velocity.copy(), self.acceleration.copy())
+        force = (np.asarray(request.pressure_force, float)
+                 + np.asarray(request.viscous_force, float)) * self.force_scale
+        if np.all(np.isfinite(force[list(self.axes)])):
+            self.acceleration = self._acceleration(force, self.t)
+        self.velocity = self.velocity + self.acceleration * (time - self.t)
+        self.t = time
+        self._log(force)
+        return FrameState(self.velocity.copy(), self.acceleration.copy())
+
+    def _log(self, force: np.ndarray) -> None:
+        if self.log_path is None:
+            return
+        new = not self.log_path.is_file()
+        self.log_path.parent.mkdir(parents=True, exist_ok=True)
+        light = float(self.light_now)
+        with open(self.log_path, "a") as f:
+            if new:
+                f.write("# Time Ux Uz ax az Fx Fz light (m/s, m/s2, N; the whale's frame)\n")
+            row = (self.t, self.velocity[0], self.velocity[2], self.acceleration[0],
+                   self.acceleration[2], force[0], force[2], light)
+            f.write(" ".join(f"{v:.12g}" for v in row) + "\n")
+
+    def state(self) -> dict:
+        return {"t": self.t, "true_from": self.true_from, "velocity": self.velocity.tolist(),
+                "acceleration": self.acceleration.tolist(),
+                "means": [[t, list(g)] for t, g in self._means]}
+
+    def restore(self, state: dict) -> None:
+        self.t = state["t"]
+        if self.log_path is not None and self.log_path.is_file() and self.t is not None:
+            keep = [line for line in self.log_path.read_text().splitlines(keepends=True)
+                    if line.startswith("#") or float(line.split()[0]) <= self.t]
+            self.log_path.write_text("".join(keep))
+        self.true_from = state["true_from"]
+        self.velocity = np.array(state["velocity"], float)
+        self.acceleration = np.array(state["acceleration"], float)
+        self._means.clear()
+        self._means.extend((t, np.array(g, float)) for t, g in state["means"])
+
+    # --- the law -------------------------------------------------------------------------
+
+    def _acceleration(self, force: np.ndarray, t_force: float) -> np.ndarray:
+        """du_f/dt over the next step from the force measured over the step ending at
+        ``t_force`` (which ran with the current acceleration)."""
+        axes = list(self.axes)
+        total = np.array([self.inertia.mass_kg + self.inertia.added(a) for a in axes])
+        added = np.array([self.inertia.added(a) for a in axes])
+        rest = force[axes] - added * self.acceleration[axes]          # G
+        window = self.schedule.period_s
+        self._means.append((t_force, rest))
+        while self._means and self._means[0][0] <= t_force - window:
+            self._means.popleft()
+        accel = np.zeros(3)
+        mean = np.mean([g for _, g in self._means], axis=0)
+        if self.true_from is None and (t_force >= self.schedule.light_until()
+                                       or self.schedule.light >= 1.0
+                                       or self.schedule.settles(t_force, mean[0])):
+            self.true_from = t_force
+        if self.true_from is None:
+            accel[axes] = -(rest - mean) / total - mean / (self.schedule.light * total)
+        else:
+            accel[axes] = -rest / total
+        return accel
+
+    @property
+    def light_now(self) -> bool:
+        return self.true_from is None and self.schedule.light < 1.0

@@ -1,0 +1,154 @@
+"""The free whale's law of motion (adapter/motion/surge.py) against closed forms: Lamb's added
+masses of prolate spheroids, a constant force's uniform acceleration, a linear drag's
+exponential approach to its balance, and a restart that continues the same path."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from adapter.motion.surge import Inertia, Schedule, SurgeFrame, spheroid_added_mass
+
+NAN3 = (math.nan,) * 3
+#: a step that adds up exactly in binary, so that two runs meet the same times
+DT = 2.0 ** -6
+
+
+def request(fx: float, fz: float = 0.0):
+    return SimpleNamespace(pressure_force=(fx, 0.0, fz), viscous_force=(0.0, 0.0, 0.0))
+
+
+@pytest.mark.parametrize("ratio, k1, k2", [
+    # Lamb, Hydrodynamics (6th ed.), section 373, and Korotkin, Added Masses of Ship
+    # Structures (2009), table 5.1: a/b, k1 (along), k2 (across)
+    (1.50, 0.305, 0.621), (2.00, 0.210, 0.704), (4.00, 0.082, 0.860), (6.01, 0.045, 0.918),
+    (10.0, 0.021, 0.960)])
+def test_spheroid_added_mass_is_lambs(ratio, k1, k2):
+    got = spheroid_added_mass(ratio, 1.0)
+    assert got == pytest.approx((k1, k2), abs=1.5e-3)
+
+
+def test_a_sphere_has_half_its_mass_added():
+    k1, k2 = spheroid_added_mass(1.0 + 1e-6, 1.0)
+    assert k1 == pytest.approx(0.5, abs=1e-4) and k2 == pytest.approx(0.5, abs=1e-4)
+
+
+def run(frame: SurgeFrame, flow, t_end: float, dt: float, t0: float = 0.0, restart=False):
+    """Drive the frame as a flow solver does: each step's force measured with the step's
+    acceleration, handed over with the next request. A restart's first request carries the
+    force of the fields read at the restart time (the plugin computes it from them)."""
+    frame.answer(t0, SimpleNamespace(pressure_force=NAN3, viscous_force=NAN3))
+    t = t0
+    force = flow(SimpleNamespace(velocity=frame.velocity, acceleration=frame.acceleration)) \
+        if restart else None
+    rows = []
+    while t < t_end - 1e-12:
+        t += dt
+        state = frame.answer(t, request(*force) if force else
+                             SimpleNamespace(pressure_force=NAN3, viscous_force=NAN3))
+        force = flow(state)
+        rows.append((t, state.velocity[0], state.velocity[2]))
+    return np.array(rows)
+
+
+def with_added_mass(m_a: float, rest):
+    """A flow whose measured force holds the added mass's reaction, F = G(u) + m_a du_f/dt."""
+    return lambda s: (rest(s.velocity[0]) + m_a * s.acceleration[0], m_a * s.acceleration[2])
+
+
+def test_a_constant_force_accelerates_by_it_over_mass_plus_added_mass():
+    inertia = Inertia(1000.0, 80.0, 860.0)
+    frame = SurgeFrame(1.3, inertia, Schedule(0.0, 1.0))
+    rows = run(frame, with_added_mass(80.0, lambda u: -54.0), 10.0, 0.01)
+    # (m + m_a) du/dt = -G = 54 N: u = 1.3 + 54 t / 1080, from the first step that knows G
+    t, u = rows[-1, 0], rows[-1, 1]
+    assert u == pytest.approx(1.3 + 54.0 / 1080.0 * (t - 0.01), rel=1e-9)
+
+
+def test_a_wrong_added_mass_estimate_only_lags():
+    # the flow's added mass twice the estimate, and three times the body's mass: still stable
+    inertia = Inertia(100.0, 150.0, 0.0)
+    frame = SurgeFrame(1.3, inertia, Schedule(0.0, 1.0))
+    rows = run(frame, with_added_mass(300.0, lambda u: -54.0), 20.0, 0.01)
+    slope = np.gradient(rows[-200:, 1], rows[-200:, 0])
+    assert np.all(np.isfinite(rows)) and slope.mean() == pytest.approx(54.0 / 400.0, rel=1e-3)
+
+
+def test_linear_drag_approaches_its_balance_exponentially():
+    # G = c (u - u_sp): u - u_sp decays as exp(-t c / (m + m_a))
+    m, m_a, c, u_sp = 5000.0, 400.0, 2000.0, 1.7
+    frame = SurgeFrame(1.3, Inertia(m, m_a, 0.0), Schedule(0.0, 1.0))
+    rows = run(frame, with_added_mass(m_a, lambda u: c * (u - u_sp)), 8.0, 0.001)
+    expected = u_sp + (1.3 - u_sp) * np.exp(-(rows[:, 0] - 0.001) * c / (m + m_a))
+    assert np.abs(rows[:, 1] - expected).max() < 2e-3 * abs(1.3 - u_sp)
+
+
+def test_the_lighter_mass_speeds_the_mean_and_not_the_swing():
+    # drag c (u - u_sp) plus a swing of zero mean: the mean approaches with light * tau, the
+    # swing of u within a cycle is the true mass's (amplitude S / (M omega))
+    m, c, u_sp, swing, period = 5000.0, 2000.0, 1.7, 3000.0, 1.0
+    omega = 2 * math.pi / period
+    light = Schedule(0.0, period, light=0.2, light_cycles=100.0)
+    frames = {"true": SurgeFrame(1.3, Inertia(m, 0.0, 0.0), Schedule(0.0, period)),
+              "light": SurgeFrame(1.3, Inertia(m, 0.0, 0.0), light)}
+    out = {}
+    for name, frame in frames.items():
+        t = {"now": 0.0}
+
+        def flow(s, t=t):
+            t["now"] += 1e-3
+            return (c * (s.velocity[0] - u_sp) + swing * math.sin(omega * t["now"]), 0.0)
+        out[name] = run(frame, flow, 12.0, 1e-3)
+    tau = m / c
+    for name, factor in (("true", 1.0), ("light", 0.2)):
+        rows = out[name]
+        late = rows[rows[:, 0] > 11.0]
+        mean_gap = abs(late[:, 1].mean() - u_sp)
+        assert mean_gap == pytest.approx(0.4 * math.exp(-11.5 / (factor * tau)), rel=0.35,
+                                         abs=2e-4)
+        amplitude = 0.5 * np.ptp(late[:, 1] - np.polyval(np.polyfit(late[:, 0], late[:, 1], 1),
+                                                         late[:, 0]))
+        assert amplitude == pytest.approx(swing / (m * omega), rel=0.1)
+
+
+def test_a_restart_continues_the_same_path(tmp_path):
+    flow = with_added_mass(80.0, lambda u: 500.0 * (u - 1.6))
+    whole = SurgeFrame(1.3, Inertia(1000.0, 80.0, 0.0), Schedule(0.0, 1.0, 0.5, 2.0),
+                       log_path=tmp_path / "whole.dat")
+    rows = run(whole, flow, 3.0, DT)
+    first = SurgeFrame(1.3, Inertia(1000.0, 80.0, 0.0), Schedule(0.0, 1.0, 0.5, 2.0),
+                       log_path=tmp_path / "split.dat")
+    run(first, flow, 1.5, DT)
+    saved = first.state()
+    run(first, flow, 2.0, DT, t0=1.5)     # ran on past the save, then stopped
+    again = SurgeFrame(1.3, Inertia(1000.0, 80.0, 0.0), Schedule(0.0, 1.0, 0.5, 2.0),
+                       log_path=tmp_path / "split.dat")
+    again.restore(saved)
+    assert again.t == pytest.approx(1.5)
+    assert max(float(r.split()[0]) for r in (tmp_path / "split.dat").read_text().splitlines()
+               if not r.startswith("#")) <= 1.5 + 1e-12
+    rest = run(again, flow, 3.0, DT, t0=1.5, restart=True)
+    assert np.array_equal(rest[:, 1:], rows[-len(rest):, 1:])
+    assert rest[-1, 1] != pytest.approx(rows[75, 1], abs=1e-3)
+
+
+def test_the_true_mass_takes_over_once_the_mean_force_is_small():
+    # G = c (u - u_sp): the running mean is under 10 N when the mean speed is within 5 mm/s
+    m, c, u_sp = 5000.0, 2000.0, 1.7
+    early = Schedule(0.0, 1.0, light=0.2, light_cycles=100.0, switch=0.01, reference_N=1000.0)
+    frame = SurgeFrame(1.3, Inertia(m, 0.0, 0.0), early)
+    rows = run(frame, with_added_mass(0.0, lambda u: c * (u - u_sp)), 12.0, DT)
+    assert frame.true_from is not None and frame.true_from >= 1.0
+    before = rows[(rows[:, 0] > frame.true_from - 1.0) & (rows[:, 0] <= frame.true_from)]
+    assert abs(c * (before[:, 1].mean() - u_sp)) < 10.0 + 0.5
+    # afterwards the true mass: the gap decays as exp(-t c / m)
+    after = rows[rows[:, 0] > frame.true_from + 0.1]
+    gap = np.abs(after[:, 1] - u_sp)
+    rate = -np.polyfit(after[:, 0], np.log(gap), 1)[0]
+    assert rate == pytest.approx(c / m, rel=0.02)
+    never = SurgeFrame(1.3, Inertia(m, 0.0, 0.0), Schedule(0.0, 1.0, 0.2, 100.0))
+    run(never, with_added_mass(0.0, lambda u: c * (u - u_sp)), 12.0, DT)
+    assert never.true_from is None
