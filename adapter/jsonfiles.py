@@ -14,6 +14,8 @@ from pathlib import Path
 #: a case's record: what prepare_case recorded about it (scene, derived numbers, mesh); the
 #: case object is :class:`adapter.foam.case.Case`, the names are here for the rooms below it
 CASE_RECORD = "adapter-case.json"
+#: the record's key that says a case is half the domain (adapter/foam/symmetry.py)
+SYMMETRY_PLANE = "symmetry_plane"
 #: a case's summary: the figures of its run (:mod:`adapter.foam.summary`)
 CASE_SUMMARY = "adapter-summary.json"
 

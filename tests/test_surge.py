@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from adapter.motion.surge import Inertia, Schedule, SurgeFrame, spheroid_added_mass
+from adapter.coupling.surge import Inertia, Schedule, SurgeFrame, spheroid_added_mass
 
 NAN3 = (math.nan,) * 3
 #: a step that adds up exactly in binary, so that two runs meet the same times

@@ -159,6 +159,9 @@ writes_per_cycle = 4
 turbulence = "laminar"
 layers = 0
 gliding = true
+[free]
+cycles = 3
+light_cycles = 1
 """
 
 
@@ -202,3 +205,18 @@ def test_run_case_runs_gliding_and_swimming_to_a_periodic_state(tmp_path):
     # the start-up is not measured: no cycle starts before the ramp ends
     assert s["cycle_means"]["start_s"][0] >= period - 1e-9
     assert (case / "forces.png").stat().st_size > 10_000
+    # then the free whale from the tethered run's last time, and gliding at its speed
+    free = json.loads((case / "adapter-summary.json").read_text())["self_propelled"]
+    frame = ld.read_loads(case / "free")
+    assert frame["Time"][0] > swim["Time"][-1] - 1e-9          # started where tethered ended
+    assert "self-propelled speed U_sp" in res.stdout
+    u_sp = free["speed_m_s"]
+    assert u_sp > 0 and free["mean_power_W"] > 0
+    # the figures' definitions (docs/free-swimming.md) from the summary's own parts
+    assert free["quasi_propulsive_efficiency"] == pytest.approx(
+        free["gliding_drag_at_speed_N"] * u_sp / free["mean_power_W"])
+    assert free["cost_of_transport_J_kg_m"] == pytest.approx(
+        free["mean_power_W"] / (free["mass_kg"] * u_sp))
+    assert free["strouhal"] == pytest.approx(0.2 * 15.0 * 0.13 / u_sp, rel=1e-3)
+    glide_sp = ld.read_loads(case / "gliding-free")
+    assert glide_sp["Time"][0] > glide["Time"][-1] - 1e-9

@@ -23,50 +23,19 @@ from pathlib import Path
 
 import numpy as np
 
+from adapter.coupling.surge import inertia_of
 from adapter.errors import CaseError
 from adapter.foam import loads as ld
-from adapter.foam import symmetry
 from adapter.foam.case import Case
-from adapter.foam.dictionaries import parsed_dict
+from adapter.foam.dictionaries import parsed_dict, use_frame_inflow
 from adapter.foam.parallel import reconstruct_new_times
 from adapter.foamfiles import time_dirs
-from adapter.motion.surge import Inertia, Schedule, SurgeFrame
 
 FREE = "free"
 GLIDING_FREE = "gliding-free"
 #: the frame's log in a case's adapter/ folder: one row per served time
 FRAME_LOG = "frame.dat"
 FRAME_COLUMNS = ("Time", "Ux", "Uz", "ax", "az", "Fx", "Fz", "light")
-
-
-def inertia_of(record: dict) -> Inertia:
-    """The whale's mass (its enclosed volume at the water's density: neutrally buoyant) and
-    added masses (``free.added_mass`` of the mass, 0: the prolate spheroid's, Lamb)."""
-    body = record["body"]
-    rho = float(record.get("rho_kg_m3", ld.BODY_DENSITY))
-    inertia = Inertia.of_body(float(body["volume_m3"]), float(body["length_m"]),
-                              float(body["diameter_m"]), rho)
-    share = float(record.get("free", {}).get("added_mass", 0.0))
-    if share > 0:
-        inertia = Inertia(inertia.mass_kg, share * inertia.mass_kg, inertia.added_heave_kg)
-    return inertia
-
-
-def frame_of(case_dir) -> SurgeFrame | None:
-    """The step-server's frame for a case: a :class:`SurgeFrame` when its record says it is
-    released (``free_release_s``), else None (the fixed inflow)."""
-    record = Case(case_dir).record
-    if "free_release_s" not in record:
-        return None
-    free = record["free"]
-    schedule = Schedule(float(record["free_release_s"]), float(record["period_s"]),
-                        float(free["light"]), float(free["light_cycles"]),
-                        switch=float(free["light_switch"]),
-                        reference_N=float(record["free_reference_drag_N"]))
-    return SurgeFrame(float(record["speed_m_s"]), inertia_of(record), schedule,
-                      heave=bool(free["heave"]),
-                      force_scale=2.0 if record.get(symmetry.RECORD_KEY) else 1.0,
-                      log_path=Path(case_dir) / "adapter" / FRAME_LOG)
 
 
 def read_frame_log(case_dir) -> dict:
@@ -121,8 +90,6 @@ def _set_end(case: Path, end_time: float) -> None:
 def prepare_free(case: Path, drag: float) -> Path:
     """``<case>/free``: the tethered swimming run at its latest time, released there; kept
     when it exists. ``drag``: the gliding drag, the scale of the lighter mass's end."""
-    from adapter.foam.frame import use_frame_inflow
-
     free = case / FREE
     if (free / "system" / "controlDict").exists():
         return free
@@ -134,7 +101,7 @@ def prepare_free(case: Path, drag: float) -> Path:
     Case(free).save(record)
     period = float(record["period_s"])
     _set_end(free, t0 + float(record["free"]["cycles"]) * period)
-    use_frame_inflow(free, (float(record["speed_m_s"]), 0.0, 0.0))
+    use_frame_inflow(free, ("0.orig", time_dirs(free)[-1][1].name))
     return free
 
 

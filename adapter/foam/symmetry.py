@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from adapter.jsonfiles import CASE_RECORD
+from adapter.jsonfiles import CASE_RECORD, SYMMETRY_PLANE
 
 #: the symmetry plane's patch
 PATCH = "symmetry"
@@ -32,7 +32,7 @@ MIRROR_TOLERANCE = 1e-6
 #: the fields of 0.orig that get the plane
 FIELDS = ("U", "p", "k", "omega", "nut", "pointDisplacement")
 #: the record key (adapter-case.json): True for a half-domain case
-RECORD_KEY = "symmetry_plane"
+RECORD_KEY = SYMMETRY_PLANE
 
 
 def is_mirror_symmetric(points, length: float, tolerance: float = MIRROR_TOLERANCE) -> bool:

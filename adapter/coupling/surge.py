@@ -31,6 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
+from adapter.coupling.frame import FrameState
+from adapter.jsonfiles import SYMMETRY_PLANE
+
 #: the axes a free whale may move along: surge (x) always, heave (z) when asked
 SURGE, HEAVE = 0, 2
 
@@ -127,8 +130,6 @@ class SurgeFrame:
     def answer(self, time: float, request):
         """The frame at ``time`` from the REQUEST's forces (those of the step that ended at the
         last served time); a first request (no forces: NaN) keeps the acceleration."""
-        from adapter.coupling.frame import FrameState
-
         if self.t is None or time <= self.t or time <= self.schedule.release_s:
             self.t = time if self.t is None else max(self.t, time)
             return FrameState(self.velocity.copy(), self.acceleration.copy())
@@ -199,3 +200,33 @@ class SurgeFrame:
     @property
     def light_now(self) -> bool:
         return self.true_from is None and self.schedule.light < 1.0
+
+
+# --- from a case's record ----------------------------------------------------------------------
+
+def inertia_of(record: dict) -> Inertia:
+    """The whale's mass (its enclosed volume at the water's density: neutrally buoyant) and
+    added masses (``free.added_mass`` of the mass, 0: the prolate spheroid's, Lamb)."""
+    body = record["body"]
+    inertia = Inertia.of_body(float(body["volume_m3"]), float(body["length_m"]),
+                              float(body["diameter_m"]), float(record["rho_kg_m3"]))
+    share = float(record.get("free", {}).get("added_mass", 0.0))
+    if share > 0:
+        inertia = Inertia(inertia.mass_kg, share * inertia.mass_kg, inertia.added_heave_kg)
+    return inertia
+
+
+def frame_of(record: dict, log_path: Path | None = None) -> SurgeFrame | None:
+    """The step-server's frame for a case record (adapter-case.json): a :class:`SurgeFrame`
+    when the record says the whale is released (``free_release_s``), else None."""
+    if "free_release_s" not in record:
+        return None
+    free = record["free"]
+    schedule = Schedule(float(record["free_release_s"]), float(record["period_s"]),
+                        float(free["light"]), float(free["light_cycles"]),
+                        switch=float(free["light_switch"]),
+                        reference_N=float(record["free_reference_drag_N"]))
+    return SurgeFrame(float(record["speed_m_s"]), inertia_of(record), schedule,
+                      heave=bool(free["heave"]),
+                      force_scale=2.0 if record.get(SYMMETRY_PLANE) else 1.0,
+                      log_path=log_path)
