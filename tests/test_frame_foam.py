@@ -107,7 +107,8 @@ whaleBlendedDisplacementCoeffs {{ patch whale; innerDistance 0.05; outerDistance
 
 
 def _point_displacement(others: dict) -> str:
-    rest = " ".join(f"{name} {{ type {kind}; {'value uniform (0 0 0);' if kind != 'empty' else ''} }}"
+    value = {"empty": ""}
+    rest = " ".join(f"{name} {{ type {kind}; {value.get(kind, 'value uniform (0 0 0);')} }}"
                     for name, kind in others.items())
     return f"""
 dimensions [0 1 0 0 0 0 0]; internalField uniform (0 0 0);

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import cast
 
+from adapter.coupling.frame import Frame, FrameLine, fixed_frame_for
 from adapter.coupling.listener import (
     PID_NAME,
     Listener,
@@ -40,7 +41,6 @@ from adapter.coupling.listener import (
     read_token_file,
     resolve_token,
 )
-from adapter.coupling.frame import Frame, FrameLine, fixed_frame_for
 from adapter.coupling.mapping import DEFAULT_TOLERANCE
 from adapter.coupling.protocol import (
     ENDPOINT_NAME,

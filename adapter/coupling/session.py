@@ -1,9 +1,10 @@
 """One connection to the step-server: reads frames and answers them (docs/protocol.md).
 
 HELLO opens the case's one link (the patch mapped onto the whale), REQUEST(t) gets the whale's
-frame and the patch's displacement at t, WRITE(t) writes the whale and its state at a time OpenFOAM wrote, BYE ends
-the link. A protocol violation is answered with an ERROR frame and closes the connection; a
-client that vanishes without BYE is reported to the server (which then saves its state).
+frame and the patch's displacement at t, WRITE(t) writes the whale and its state at a time
+OpenFOAM wrote, BYE ends the link. A protocol violation is answered with an ERROR frame and
+closes the connection; a client that vanishes without BYE is reported to the server (which then
+saves its state).
 """
 
 from __future__ import annotations

@@ -97,7 +97,8 @@ stepServer::Loads unknownLoads()
     const double nan = std::numeric_limits<double>::quiet_NaN();
     stepServer::Loads l;
     for (auto* v :
-         {&l.pressureForce, &l.viscousForce, &l.pressureMoment, &l.viscousMoment})
+         {&l.pressureForce, &l.viscousForce, &l.pressureMoment, &l.viscousMoment
+         })
     {
         v->fill(nan);
     }
@@ -166,10 +167,8 @@ vectorField stepServerLink::scatter(const vectorField& all, const label nLocal)
 }
 
 
-vectorField stepServerLink::request(
-    const pointPatch& patch,
-    const stepServer::Loads& loads
-)
+vectorField
+stepServerLink::request(const pointPatch& patch, const stepServer::Loads& loads)
 {
     const Time& t = meshOf(patch).time();
     stepServer::Displacement r;

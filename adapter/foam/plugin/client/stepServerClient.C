@@ -94,7 +94,9 @@ Displacement stepServerClient::request(double t, const Loads& loads)
     p.reserve(104);
     putF64(p, t);
     for (const auto* v :
-         {&loads.pressureForce, &loads.viscousForce, &loads.pressureMoment,
+         {&loads.pressureForce,
+          &loads.viscousForce,
+          &loads.pressureMoment,
           &loads.viscousMoment})
     {
         for (double x : *v) putF64(p, x);
@@ -138,7 +140,8 @@ Displacement stepServerClient::request(double t, const Loads& loads)
         if (!std::isfinite(reply.frameVelocity[k])
             || !std::isfinite(reply.frameAcceleration[k]))
         {
-            fail("DISPLACEMENT carries a non-finite frame velocity or acceleration");
+            fail("DISPLACEMENT carries a non-finite frame velocity or "
+                 "acceleration");
         }
     }
     std::vector<double>& d = reply.d;

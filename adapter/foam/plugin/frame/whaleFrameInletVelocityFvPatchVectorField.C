@@ -86,7 +86,10 @@ void Foam::whaleFrameInletVelocityFvPatchVectorField::write(Ostream& os) const
 
 namespace Foam
 {
-makePatchTypeField(fvPatchVectorField, whaleFrameInletVelocityFvPatchVectorField);
+makePatchTypeField(
+    fvPatchVectorField,
+    whaleFrameInletVelocityFvPatchVectorField
+);
 }
 
 // ************************************************************************* //

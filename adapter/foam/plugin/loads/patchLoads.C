@@ -65,10 +65,8 @@ Foam::tmp<Foam::vectorField> Foam::patchLoads::viscous(const label patchi) const
 }
 
 
-Foam::tmp<Foam::vectorField> Foam::patchLoads::moments(
-    const label patchi,
-    const vectorField& f
-) const
+Foam::tmp<Foam::vectorField>
+Foam::patchLoads::moments(const label patchi, const vectorField& f) const
 {
     return mesh_.C().boundaryField()[patchi] ^ f;
 }
