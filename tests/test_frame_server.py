@@ -185,3 +185,30 @@ def test_a_non_finite_frame_is_a_model_failure(tmp_path, serve, points):
     assert info.value.code == ErrorCode.MODEL_FAILURE
     assert "frame at t = 0.015625 s is not finite" in info.value.message
     assert finished(srv) == 1
+
+
+def test_use_frame_inflow_switches_only_the_inlet_and_the_body_force(tmp_path, smoke_scene,
+                                                                     smoke_surface):
+    """A prepared case keeps its (ramped) inflow and has no fvOptions; switched, the inlet of
+    0.orig/U is whaleFrameInletVelocity from the ramp's start value, every other U entry as it
+    was, and system/fvOptions holds the whaleFrameAcceleration option (the plugin library)."""
+    from adapter.foam import case as C
+    from adapter.foam import dictionaries as D
+
+    case = tmp_path / "case"
+    C.prepare_case(smoke_scene, case, surface=smoke_surface)
+    before = D.parsed_dict(case / "0.orig" / "U")
+    assert str(before["boundaryField"]["inlet"]["type"]) == "uniformFixedValue"   # the ramp
+    assert not (case / "system" / "fvOptions").exists()
+    D.use_frame_inflow(case)
+    after = D.parsed_dict(case / "0.orig" / "U")
+    inlet = after["boundaryField"]["inlet"]
+    assert str(inlet["type"]) == "whaleFrameInletVelocity"
+    assert str(inlet["value"]) == "uniform (0 0 0)"          # still water, as the ramp starts
+    assert after["internalField"] == before["internalField"]
+    for name in ("outlet", "sides", "whale"):
+        assert after["boundaryField"][name] == before["boundaryField"][name]
+    options = D.parsed_dict(case / "system" / "fvOptions")
+    option = options[D.FRAME_OPTION]
+    assert str(option["type"]) == "whaleFrameAcceleration"
+    assert str(D.plugin_lib()) in str(option["libs"])

@@ -286,20 +286,18 @@ _FOAM_HEADER = """FoamFile
 
 def use_frame_inflow(case: Path) -> None:
     """Switch a prepared case to the flow in the whale's frame: the inlet of ``U``
-    (``0.orig`` and ``0`` where they exist) becomes ``whaleFrameInletVelocity`` (its value: the
-    inflow until the first exchange), and ``system/fvOptions`` gets the ``whaleFrameAcceleration``
-    body force. Both follow the frame the step-server sends with every DISPLACEMENT
-    (adapter.coupling.frame); a case not switched keeps its fixed inflow."""
+    (``0.orig`` and ``0`` where they exist) becomes ``whaleFrameInletVelocity``, its value the
+    inlet's until the first exchange (a ramped inflow's start: its table is dropped, the frame
+    decides the inflow from the first step on), and ``system/fvOptions`` gets the
+    ``whaleFrameAcceleration`` body force. Both follow the frame the step-server sends with
+    every DISPLACEMENT (adapter.coupling.frame); a case not switched keeps its inflow."""
     case = Path(case)
     for zero in ("0.orig", "0"):
         path = case / zero / "U"
         if not path.is_file():
             continue
         d = parsed_dict(path)
-        inlet = d["boundaryField"]["inlet"]
-        value = inlet.get("value", "uniform $Uinlet")
-        if "Uinlet" in d and str(inlet.get("type")) == "uniformFixedValue":
-            value = "uniform $Uinlet"        # the ramp's start: the frame takes over from it
+        value = d["boundaryField"]["inlet"].get("value", "uniform $Uinlet")
         d["boundaryField"]["inlet"] = {"type": "whaleFrameInletVelocity", "value": value}
         d.writeFile()
     path = case / "system" / "fvOptions"
