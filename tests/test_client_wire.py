@@ -77,7 +77,7 @@ HEADER = struct.Struct("<4sHHII")        # magic, u16 version, u16 type, u32 len
 
 def test_the_document_is_read_as_expected():
     """The facts above come from the document; this pins what was read."""
-    assert DOC["magic"] == b"WHAL" and DOC["version"] == 2
+    assert DOC["magic"] == b"WHAL" and DOC["version"] == 3
     assert T == {"HELLO": 1, "WELCOME": 2, "REQUEST": 3, "DISPLACEMENT": 4, "WRITE": 5,
                  "ACK": 6, "BYE": 7, "ERROR": 9}
     assert sorted(DOC["codes"]) == [1, 2, 3, 4, 5, 6, 7]
@@ -100,9 +100,13 @@ def welcome(n: int, max_dist: float, dt: float, seq: int = 1) -> bytes:
     return frame(T["WELCOME"], struct.pack("<I", n) + f64s([max_dist, dt]), seq)
 
 
-def displacement(t: float, values, seq: int = 2, n: int | None = None) -> bytes:
+def displacement(t: float, values, seq: int = 2, n: int | None = None,
+                 frame_uva=None) -> bytes:
+    """DISPLACEMENT: f64 time, 3 f64 frame velocity, 3 f64 frame acceleration, u32 nPoints,
+    the points' displacements."""
     n = len(values) // 3 if n is None else n
-    return frame(T["DISPLACEMENT"], f64s([t]) + struct.pack("<I", n) + f64s(values), seq)
+    uva = FRAME_UA if frame_uva is None else frame_uva
+    return frame(T["DISPLACEMENT"], f64s([t, *uva]) + struct.pack("<I", n) + f64s(values), seq)
 
 
 def error(code: int, message: str, seq: int = 1) -> bytes:
@@ -115,8 +119,11 @@ N_RANKS = 3
 TOKEN = "sécret-ü"                       # 8 characters, 10 UTF-8 bytes
 POINTS = [0.1, -2.5, 1e-300, -0.0, 3.0, 123456.789]             # two points
 T1, T2 = 0.1, 0.30000000000000004
-NAN3 = [math.nan] * 3                   # forces not known yet (the first REQUEST)
+NAN3 = [math.nan] * 3                   # loads not known yet (the first REQUEST)
 FP, FV = [1.5, -2.25e-7, 1 / 3], [-0.0, 7e12, 2.0 ** -1074]
+MP, MV = [-3.5e3, 0.125, 1e-310], [2.0 ** 60, -1 / 7, -0.0]       # moments (N m)
+#: the frame of a DISPLACEMENT: velocity (m/s) then acceleration (m/s2)
+FRAME_UA = [1.3, -0.0, 2.0 ** -30, -0.25, 1e-300, 1 / 3]
 DISP = [1e-3, -2e-3, 0.0, 5e-310, -1.0 / 7, 0.25]
 WELCOME_VALUES = (0.05, 1.0 / 2048)
 
@@ -127,8 +134,9 @@ def hello_frame(seq: int = 1) -> bytes:
     return frame(T["HELLO"], payload, seq)
 
 
-def request_frame(t: float, fp, fv, seq: int) -> bytes:
-    return frame(T["REQUEST"], f64s([t, *fp, *fv]), seq)
+def request_frame(t: float, fp, fv, mp, mv, seq: int) -> bytes:
+    """REQUEST: f64 time, pressure force, viscous force, pressure moment, viscous moment."""
+    return frame(T["REQUEST"], f64s([t, *fp, *fv, *mp, *mv]), seq)
 
 
 def _arg(x: float) -> str:
@@ -138,8 +146,8 @@ def _arg(x: float) -> str:
 HELLO_STEP = ["hello", str(N_RANKS), TOKEN, ",".join(_arg(x) for x in POINTS)]
 
 
-def request_step(t: float, fp=FP, fv=FV) -> list[str]:
-    return ["request", *(_arg(x) for x in [t, *fp, *fv])]
+def request_step(t: float, fp=FP, fv=FV, mp=MP, mv=MV) -> list[str]:
+    return ["request", *(_arg(x) for x in [t, *fp, *fv, *mp, *mv])]
 
 
 # -- the harness and the fake server ---------------------------------------------------------
@@ -249,31 +257,34 @@ def refused(harness, replies, steps, **kw) -> tuple[str, list[bytes]]:
 # -- a good session ----------------------------------------------------------------------
 
 def test_a_session_frame_by_frame(harness):
-    """HELLO, REQUEST (forces not known yet: NaN), REQUEST, WRITE, BYE, byte for byte, with
-    sequence numbers counting up from 1; WELCOME and DISPLACEMENT read to the exact bits."""
+    """HELLO, REQUEST (loads not known yet: NaN), REQUEST, WRITE, BYE, byte for byte, with
+    sequence numbers counting up from 1; WELCOME and DISPLACEMENT (the frame, then the points)
+    read to the exact bits."""
+    frame_2 = FRAME_UA[::-1]
     replies = [welcome(2, *WELCOME_VALUES, seq=1),
                displacement(T1, DISP, seq=2),
-               displacement(T2, DISP[::-1], seq=3),
+               displacement(T2, DISP[::-1], seq=3, frame_uva=frame_2),
                frame(T["ACK"], seq=4)]
-    steps = [*HELLO_STEP, *request_step(T1, NAN3, NAN3), *request_step(T2), "write",
-             T2.hex(), "bye"]
+    steps = [*HELLO_STEP, *request_step(T1, NAN3, NAN3, NAN3, NAN3), *request_step(T2),
+             "write", T2.hex(), "bye"]
     out, rc, frames, eof = run_client(harness, replies, steps)
     assert rc == 0, out
     assert frames == [hello_frame(1),
-                      request_frame(T1, NAN3, NAN3, 2),
-                      request_frame(T2, FP, FV, 3),
+                      request_frame(T1, NAN3, NAN3, NAN3, NAN3, 2),
+                      request_frame(T2, FP, FV, MP, MV, 3),
                       frame(T["WRITE"], f64s([T2]), 4),
                       frame(T["BYE"], b"", 5)]
     assert eof
     assert out[0].split()[:2] == ["WELCOME", "2"]
     assert reals(out[0].split()[2:]) == list(WELCOME_VALUES)
-    for line, values in zip(out[1:3], [DISP, DISP[::-1]], strict=True):
-        words = line.split()
-        assert words[:2] == ["DISPLACEMENT", "6"]
-        got = reals(words[2:])
-        assert got == values
-        assert [math.copysign(1, x) for x in got] == [math.copysign(1, x) for x in values]
-    assert out[3:] == ["ACK", "BYE"]
+    for k, (uva, values) in enumerate([(FRAME_UA, DISP), (frame_2, DISP[::-1])]):
+        frame_words, disp_words = out[1 + 2 * k].split(), out[2 + 2 * k].split()
+        assert frame_words[0] == "FRAME" and reals(frame_words[1:]) == uva
+        assert disp_words[:2] == ["DISPLACEMENT", "6"]
+        for got, want in ((reals(frame_words[1:]), uva), (reals(disp_words[2:]), values)):
+            assert got == want
+            assert [math.copysign(1, x) for x in got] == [math.copysign(1, x) for x in want]
+    assert out[5:] == ["ACK", "BYE"]
 
 
 def test_a_unix_socket_session(harness, tmp_path_factory):
@@ -347,6 +358,15 @@ def test_a_non_finite_displacement_is_refused(harness, bad):
     assert err.startswith("DISPLACEMENT contains a non-finite value at point 1 ")
 
 
+@pytest.mark.parametrize("at", range(6))
+def test_a_non_finite_frame_is_refused(harness, at):
+    uva = list(FRAME_UA)
+    uva[at] = math.nan if at % 2 else math.inf
+    err, _ = refused(harness, [welcome(2, *WELCOME_VALUES), displacement(T1, DISP, frame_uva=uva)],
+                     [*HELLO_STEP, *request_step(T1)])
+    assert err.startswith("DISPLACEMENT carries a non-finite frame velocity or acceleration ")
+
+
 GOOD_WELCOME = welcome(2, *WELCOME_VALUES)
 CLOSED = "the step-server closed the connection (EOF): it stopped or crashed"
 WELCOME_PAYLOAD = struct.pack("<Idd", 2, *WELCOME_VALUES)
@@ -354,10 +374,10 @@ REFUSED = {
     # name: (replies, expected start of the message)
     "bad magic": ([frame(T["WELCOME"], WELCOME_PAYLOAD, magic=b"WHAM")],
                   "malformed reply in reply to HELLO: bad magic"),
-    "newer version": ([frame(T["WELCOME"], WELCOME_PAYLOAD, version=3)],
-                      "protocol version mismatch in reply to HELLO: server speaks 3, client 2"),
-    "older version": ([frame(T["WELCOME"], WELCOME_PAYLOAD, version=1)],
-                      "protocol version mismatch in reply to HELLO: server speaks 1, client 2"),
+    "newer version": ([frame(T["WELCOME"], WELCOME_PAYLOAD, version=4)],
+                      "protocol version mismatch in reply to HELLO: server speaks 4, client 3"),
+    "older version": ([frame(T["WELCOME"], WELCOME_PAYLOAD, version=2)],
+                      "protocol version mismatch in reply to HELLO: server speaks 2, client 3"),
     "WELCOME with a trailing byte": ([frame(T["WELCOME"], WELCOME_PAYLOAD + b"\0")],
                                      "malformed WELCOME: payload of 21 bytes, expected 20"),
     "WELCOME one byte short": ([frame(T["WELCOME"], WELCOME_PAYLOAD[:-1])],
@@ -378,10 +398,14 @@ REFUSED = {
     "no reply at all": ([(b"", "close")], CLOSED),
     "DISPLACEMENT one point short": (
         [GOOD_WELCOME, displacement(T1, DISP[:3])],
-        "malformed DISPLACEMENT: payload of 36 bytes, expected 60 for 2 points"),
+        "malformed DISPLACEMENT: payload of 84 bytes, expected 108 for 2 points"),
     "DISPLACEMENT with a trailing byte": (
         [GOOD_WELCOME, frame(T["DISPLACEMENT"], displacement(T1, DISP)[16:] + b"\0", 2)],
-        "malformed DISPLACEMENT: payload of 61 bytes, expected 60 for 2 points"),
+        "malformed DISPLACEMENT: payload of 109 bytes, expected 108 for 2 points"),
+    "DISPLACEMENT without the frame (version 2's layout)": (
+        [GOOD_WELCOME, frame(T["DISPLACEMENT"], f64s([T1]) + struct.pack("<I", 2) + f64s(DISP),
+                             2)],
+        "malformed DISPLACEMENT: payload of 60 bytes, expected 108 for 2 points"),
     "DISPLACEMENT naming another count": (
         [GOOD_WELCOME, displacement(T1, DISP, n=5)], "DISPLACEMENT for 5 points, expected 2"),
     "DISPLACEMENT for another time": (

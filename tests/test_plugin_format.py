@@ -17,7 +17,7 @@ import pytest
 from adapter.resources import PLUGIN_SRC
 
 #: the folders, one per concern (docs/openfoam-plugin.md)
-CONCERNS = {"client", "boundaryCondition", "motionSolver", "loads", "common"}
+CONCERNS = {"client", "boundaryCondition", "motionSolver", "loads", "frame", "common"}
 
 
 def _sources() -> list[Path]:

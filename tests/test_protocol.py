@@ -13,12 +13,12 @@ from adapter.errors import ProtocolError
 
 
 def test_header_layout_matches_the_spec():
-    frame = wire.encode_frame(MessageType.REQUEST, b"x" * 56, seq=7)
+    frame = wire.encode_frame(MessageType.REQUEST, b"x" * 104, seq=7)
     assert frame[:4] == b"WHAL"
-    assert struct.unpack("<HHII", frame[4:16]) == (2, 3, 56, 7)
-    assert len(frame) == 16 + 56
+    assert struct.unpack("<HHII", frame[4:16]) == (3, 3, 104, 7)
+    assert len(frame) == 16 + 104
     decoded = wire.decode_frame(frame)
-    assert (decoded.type, decoded.seq, decoded.payload) == (MessageType.REQUEST, 7, b"x" * 56)
+    assert (decoded.type, decoded.seq, decoded.payload) == (MessageType.REQUEST, 7, b"x" * 104)
 
 
 def test_message_round_trips():
@@ -31,12 +31,19 @@ def test_message_round_trips():
     assert (hello.n_ranks, hello.token) == (4, "sécret")
     assert np.array_equal(hello.points, pts)
     assert wire.unpack_welcome(wire.pack_welcome(4, 0.25, 1e-3)) == (4, 0.25, 1e-3)
-    req = wire.unpack_request(wire.pack_request(0.1, (1, 2, 3), (4, 5, 6)))
+    req = wire.unpack_request(wire.pack_request(0.1, (1, 2, 3), (4, 5, 6), (7, 8, 9),
+                                                (10, 11, 12)))
     assert req.time == 0.1 and req.pressure_force.tolist() == [1, 2, 3]
     assert req.viscous_force.tolist() == [4, 5, 6]
-    assert np.isnan(wire.unpack_request(wire.pack_request(0.2)).pressure_force).all()
-    t, d = wire.unpack_displacement(wire.pack_displacement(0.3, pts))
-    assert t == 0.3 and np.array_equal(d, pts)
+    assert req.pressure_moment.tolist() == [7, 8, 9]
+    assert req.viscous_moment.tolist() == [10, 11, 12]
+    assert req.loads().tolist() == list(range(1, 13)) and req.known()
+    unknown = wire.unpack_request(wire.pack_request(0.2))
+    assert np.isnan(unknown.loads()).all() and not unknown.known()
+    reply = wire.unpack_displacement(wire.pack_displacement(0.3, (1.3, 0, -2), (0.5, 0, 0), pts))
+    assert reply.time == 0.3 and np.array_equal(reply.displacement, pts)
+    assert reply.frame_velocity.tolist() == [1.3, 0, -2]
+    assert reply.frame_acceleration.tolist() == [0.5, 0, 0]
     assert wire.unpack_write(wire.pack_write(0.5)) == 0.5
     assert wire.unpack_error(wire.pack_error(5, "späť")) == (5, "späť")
 
@@ -71,11 +78,12 @@ def test_read_frame_assembles_partial_reads():
     "data, code, words",
     [
         (b"JUNK" + bytes(12), ErrorCode.BAD_FRAME, "magic"),
-        (struct.pack("<4sHHII", b"WHAL", 2, 3, wire.MAX_PAYLOAD + 1, 1), ErrorCode.BAD_FRAME,
+        (struct.pack("<4sHHII", b"WHAL", 3, 3, wire.MAX_PAYLOAD + 1, 1), ErrorCode.BAD_FRAME,
          "exceeds the limit"),
-        (struct.pack("<4sHHII", b"WHAL", 2, 42, 0, 1), ErrorCode.BAD_FRAME, "unknown message"),
+        (struct.pack("<4sHHII", b"WHAL", 3, 42, 0, 1), ErrorCode.BAD_FRAME, "unknown message"),
         (struct.pack("<4sHHII", b"WHAL", 1, 1, 0, 1), ErrorCode.VERSION_MISMATCH, "version 1"),
-        (struct.pack("<4sHHII", b"WHAL", 2, 3, 56, 1) + bytes(10), ErrorCode.BAD_FRAME,
+        (struct.pack("<4sHHII", b"WHAL", 2, 3, 56, 1), ErrorCode.VERSION_MISMATCH, "version 2"),
+        (struct.pack("<4sHHII", b"WHAL", 3, 3, 104, 1) + bytes(10), ErrorCode.BAD_FRAME,
          "truncated"),
         (b"WHA", ErrorCode.BAD_FRAME, "truncated"),
     ],
@@ -93,7 +101,7 @@ def test_read_frame_rejects(data, code, words):
 
 
 def test_version_mismatch_names_both_versions():
-    with pytest.raises(WireError, match="version 7.*version 2"):
+    with pytest.raises(WireError, match="version 7.*version 3"):
         wire.decode_header(struct.pack("<4sHHII", b"WHAL", 7, 1, 0, 1))
 
 
@@ -113,9 +121,12 @@ def test_bad_payloads():
     with pytest.raises(WireError, match="0 ranks"):
         wire.unpack_hello(wire.pack_hello(0, np.zeros((1, 3))))
     with pytest.raises(WireError, match="REQUEST"):
-        wire.unpack_request(b"\0" * 55)
+        wire.unpack_request(b"\0" * 103)
     with pytest.raises(WireError, match="DISPLACEMENT"):
-        wire.unpack_displacement(wire.pack_displacement(0.0, np.zeros((2, 3)))[:-1])
+        wire.unpack_displacement(wire.pack_displacement(0.0, (0, 0, 0), (0, 0, 0),
+                                                        np.zeros((2, 3)))[:-1])
+    with pytest.raises(ValueError, match="3 values each"):
+        wire.pack_displacement(0.0, (1, 0), (0, 0, 0), np.zeros((1, 3)))
 
 
 # --- hand-built frames: the bytes of docs/protocol.md, packed here, not by the module ----------
@@ -126,7 +137,7 @@ def _frame(version, msg_type, payload=b"", seq=1):
 
 
 #: the protocol version of docs/protocol.md
-SPEC_VERSION = 2
+SPEC_VERSION = 3
 
 
 def _hello(n_ranks, points, token=b""):
@@ -136,7 +147,7 @@ def _hello(n_ranks, points, token=b""):
             + struct.pack(f"<{len(pts)}d", *pts))
 
 
-@pytest.mark.parametrize("version", [0, 1, 3, 0xFFFF])
+@pytest.mark.parametrize("version", [0, 1, 2, 4, 0xFFFF])
 @pytest.mark.parametrize("msg_type", [1, 3, 7])
 def test_a_hand_built_frame_of_another_version_is_refused(version, msg_type):
     payload = _hello(1, [(1.0, 2.0, 3.0)]) if msg_type == 1 else b""
@@ -145,7 +156,7 @@ def test_a_hand_built_frame_of_another_version_is_refused(version, msg_type):
         with pytest.raises(WireError) as info:
             decode(data)
         assert info.value.code == ErrorCode.VERSION_MISMATCH == 2
-        assert f"version {version}" in str(info.value) and "version 2" in str(info.value)
+        assert f"version {version}" in str(info.value) and "version 3" in str(info.value)
     # and over a socket, before the payload is read
     a, b = _pair()
     a.sendall(data)
@@ -199,11 +210,15 @@ _BIG = wire.MAX_PAYLOAD
     (lambda: wire.unpack_hello(struct.pack("<III", 1, 0, 2) + b"\xff\xfe"), 3,
      "^bad HELLO: token is not UTF-8$"),
     (lambda: wire.unpack_welcome(bytes(19)), 1, "bad WELCOME: payload has 19 bytes, expected 20"),
-    (lambda: wire.unpack_request(bytes(57)), 1, "bad REQUEST: payload has 57 bytes, expected 56"),
-    (lambda: wire.unpack_displacement(bytes(11)), 1,
-     "bad DISPLACEMENT: payload has 11 bytes, expected at least 12"),
-    (lambda: wire.unpack_displacement(struct.pack("<dI", 0.5, 1) + bytes(23)), 1,
-     "bad DISPLACEMENT: payload has 35 bytes, expected 36"),
+    (lambda: wire.unpack_request(bytes(57)), 1, "bad REQUEST: payload has 57 bytes, expected 104"),
+    (lambda: wire.unpack_request(bytes(56)), 1, "bad REQUEST: payload has 56 bytes, expected 104"),
+    (lambda: wire.unpack_displacement(bytes(59)), 1,
+     "bad DISPLACEMENT: payload has 59 bytes, expected at least 60"),
+    (lambda: wire.unpack_displacement(struct.pack("<7dI", 0.5, *[0] * 6, 1) + bytes(23)), 1,
+     "bad DISPLACEMENT: payload has 83 bytes, expected 84"),
+    # a version-2 DISPLACEMENT (no frame block) for one point is too short for its count
+    (lambda: wire.unpack_displacement(struct.pack("<dI", 0.5, 1) + bytes(24)), 1,
+     "bad DISPLACEMENT: payload has 36 bytes, expected at least 60"),
     (lambda: wire.unpack_write(bytes(7)), 1, "bad WRITE: payload has 7 bytes, expected 8"),
     (lambda: wire.unpack_error(bytes(3)), 1, "bad ERROR: payload has 3 bytes, expected at least 4"),
 ])
@@ -229,8 +244,8 @@ def test_limits_and_minimal_payloads_are_accepted():
     # DISPLACEMENT, an ERROR with an empty message
     hello = wire.unpack_hello(struct.pack("<III", 1, 0, 0))
     assert (hello.n_ranks, hello.token, hello.points.shape) == (1, "", (0, 3))
-    t, d = wire.unpack_displacement(struct.pack("<dI", 2.5, 0))
-    assert t == 2.5 and d.shape == (0, 3)
+    reply = wire.unpack_displacement(struct.pack("<7dI", 2.5, *[0.0] * 6, 0))
+    assert reply.time == 2.5 and reply.displacement.shape == (0, 3)
     assert wire.unpack_error(struct.pack("<I", 6)) == (6, "")
 
 
@@ -245,7 +260,12 @@ def test_unsigned_fields_and_hand_packed_payloads():
     hello = wire.unpack_hello(_hello(big + 1, [(1.0, 2.0, 3.0)]))
     assert hello.n_ranks == big + 1
     pts = [[1, 2, 3], [4, 5, 6]]  # integers: sent as float64
-    assert wire.pack_displacement(0.25, pts) == struct.pack("<dI6d", 0.25, 2, *range(1, 7))
+    # DISPLACEMENT: f64 time, 3 f64 frame velocity, 3 f64 frame acceleration, u32 nPoints, points
+    assert wire.pack_displacement(0.25, [1, 0, 0], [0, 0, 2], pts) == struct.pack(
+        "<7dI6d", 0.25, 1, 0, 0, 0, 0, 2, 2, *range(1, 7))
+    # REQUEST: f64 time, pressure force, viscous force, pressure moment, viscous moment
+    assert wire.pack_request(0.5, [1, 2, 3], [4, 5, 6], [7, 8, 9], [10, 11, 12]) == struct.pack(
+        "<13d", 0.5, *range(1, 13))
     assert wire.pack_hello(1, pts)[12:] == struct.pack("<6d", *range(1, 7))
     # a bad byte in an ERROR message is replaced, not raised
     assert wire.unpack_error(struct.pack("<I", 1) + b"a\xffb") == (1, "a\ufffdb")

@@ -230,7 +230,7 @@ def test_bad_clients_do_not_kill_the_server(case, serve, points):
     good.request(TIMES[0])
     sent = [
         b"GARBAGE GARBAGE GARBAGE",
-        struct.pack("<4sHHII", b"WHAL", 2, 3, 2**31, 1),        # oversized
+        struct.pack("<4sHHII", b"WHAL", wire.VERSION, 3, 2**31, 1),   # oversized
         wire.encode_frame(MessageType.REQUEST, wire.pack_request(0.1), 1)[:30],   # truncated
         wire.encode_frame(MessageType.REQUEST, wire.pack_request(0.1), 1),        # no HELLO
     ]
@@ -242,13 +242,14 @@ def test_bad_clients_do_not_kill_the_server(case, serve, points):
             bad.reply()
         assert info.value.code == ErrorCode.BAD_FRAME
         bad.sock.close()
-    v1 = Client(case)
-    v1.sock.sendall(wire.encode_frame(MessageType.HELLO, wire.pack_hello(1, points), 1,
-                                      version=1))
-    with pytest.raises(ServerSaid) as info:
-        v1.reply()
-    assert info.value.code == ErrorCode.VERSION_MISMATCH
-    assert "version 1" in info.value.message and "version 2" in info.value.message
+    for old in (1, 2):                  # an older plugin: ERROR 2 naming both versions
+        v_old = Client(case)
+        v_old.sock.sendall(wire.encode_frame(MessageType.HELLO, wire.pack_hello(1, points), 1,
+                                             version=old))
+        with pytest.raises(ServerSaid) as info:
+            v_old.reply()
+        assert info.value.code == ErrorCode.VERSION_MISMATCH
+        assert f"version {old}" in info.value.message and "version 3" in info.value.message
     busy = Client(case)
     with pytest.raises(ServerSaid) as info:
         busy.hello(points[:5])                                  # the case has its link

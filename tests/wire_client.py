@@ -50,13 +50,21 @@ class Client:
         assert f.type == MessageType.WELCOME
         return wire.unpack_welcome(f.payload)
 
-    def request(self, t, fp=(np.nan,) * 3, fv=(np.nan,) * 3):
+    def request(self, t, fp=(np.nan,) * 3, fv=(np.nan,) * 3, mp=(np.nan,) * 3,
+                mv=(np.nan,) * 3):
         """(the DISPLACEMENT payload's bytes, the (P, 3) displacement) at time t."""
-        f = self.call(MessageType.REQUEST, wire.pack_request(t, fp, fv))
+        payload, reply = self.exchange(t, fp, fv, mp, mv)
+        return payload, reply.displacement
+
+    def exchange(self, t, fp=(np.nan,) * 3, fv=(np.nan,) * 3, mp=(np.nan,) * 3,
+                 mv=(np.nan,) * 3):
+        """(the DISPLACEMENT payload's bytes, the decoded DISPLACEMENT) at time t, for the
+        forces ``fp``, ``fv`` and moments ``mp``, ``mv``."""
+        f = self.call(MessageType.REQUEST, wire.pack_request(t, fp, fv, mp, mv))
         assert f.type == MessageType.DISPLACEMENT
-        t_back, disp = wire.unpack_displacement(f.payload)
-        assert t_back == t
-        return f.payload, disp
+        reply = wire.unpack_displacement(f.payload)
+        assert reply.time == t
+        return f.payload, reply
 
     def displacement(self, t):
         """The (P, 3) displacement at time t."""

@@ -1,4 +1,4 @@
-"""The step-server wire format (docs/protocol.md, version 2).
+"""The step-server wire format (docs/protocol.md, version 3).
 
 A frame is a 16-byte header -- magic ``WHAL``, version (u16), message type (u16), payload length
 (u32), sequence number (u32), all little-endian -- then the payload. Reals are float64
@@ -22,8 +22,9 @@ import numpy as np
 from adapter.errors import ProtocolError
 
 MAGIC = b"WHAL"
-#: 2: one link per case (the master rank sends every rank's points; no rank field in HELLO)
-VERSION = 2
+#: 3: the whale's frame (inflow and body force) in DISPLACEMENT, moments in REQUEST (2: one link
+#: per case, the master rank sends every rank's points; no rank field in HELLO)
+VERSION = 3
 #: largest payload accepted (bytes)
 MAX_PAYLOAD = 64 * 1024 * 1024
 HEADER = struct.Struct("<4sHHII")
@@ -102,11 +103,35 @@ class Hello:
 
 @dataclass(frozen=True)
 class Request:
-    """A REQUEST: the time (s) and the whole patch's pressure and viscous forces (3,) in N."""
+    """A REQUEST: the time (s), the whole patch's pressure and viscous forces (3,) in N and their
+    moments (3,) in N m about the origin, at the last completed step (NaN: not known)."""
 
     time: float
     pressure_force: np.ndarray
     viscous_force: np.ndarray
+    pressure_moment: np.ndarray
+    viscous_moment: np.ndarray
+
+    def loads(self) -> np.ndarray:
+        """The (12,) forces then moments: pressure force, viscous force, pressure moment,
+        viscous moment."""
+        return np.concatenate([self.pressure_force, self.viscous_force, self.pressure_moment,
+                               self.viscous_moment])
+
+    def known(self) -> bool:
+        """Whether every force and moment is finite (not the NaN of a first REQUEST)."""
+        return bool(np.isfinite(self.loads()).all())
+
+
+@dataclass(frozen=True)
+class Displacement:
+    """A DISPLACEMENT: the time (s), the frame's velocity (3,) in m/s and acceleration (3,) in
+    m/s2, and the patch's displacement (P, 3) in m."""
+
+    time: float
+    frame_velocity: np.ndarray
+    frame_acceleration: np.ndarray
+    displacement: np.ndarray
 
 
 # --- frames -----------------------------------------------------------------------------------
@@ -257,33 +282,50 @@ def unpack_welcome(payload: bytes) -> tuple[int, float, float]:
     return _WELCOME.unpack(payload)
 
 
-_REQUEST = struct.Struct("<7d")
+_REQUEST = struct.Struct("<13d")
+_NAN3 = (np.nan,) * 3
 
 
-def pack_request(time: float, pressure_force=(np.nan,) * 3, viscous_force=(np.nan,) * 3) -> bytes:
-    """REQUEST payload: time (s), the whole patch's pressure and viscous force (3,) in N."""
-    return _REQUEST.pack(time, *map(float, pressure_force), *map(float, viscous_force))
+def pack_request(time: float, pressure_force=_NAN3, viscous_force=_NAN3, pressure_moment=_NAN3,
+                 viscous_moment=_NAN3) -> bytes:
+    """REQUEST payload: time (s), the whole patch's pressure and viscous force (3,) in N, then
+    its pressure and viscous moment (3,) in N m about the origin."""
+    loads = (pressure_force, viscous_force, pressure_moment, viscous_moment)
+    return _REQUEST.pack(time, *(float(v) for vec in loads for v in vec))
 
 
 def unpack_request(payload: bytes) -> Request:
     _expect_size(payload, _REQUEST.size, "REQUEST")
-    values = _REQUEST.unpack(payload)
-    return Request(values[0], np.array(values[1:4]), np.array(values[4:7]))
+    values = np.array(_REQUEST.unpack(payload))
+    return Request(float(values[0]), values[1:4], values[4:7], values[7:10], values[10:13])
 
 
-def pack_displacement(time: float, displacement) -> bytes:
-    """DISPLACEMENT payload: time (s), point count, displacement (P, 3) in m."""
+#: DISPLACEMENT's fixed part: time, frame velocity (3), frame acceleration (3), point count
+_DISPLACEMENT = struct.Struct("<7dI")
+
+
+def pack_displacement(time: float, frame_velocity, frame_acceleration, displacement) -> bytes:
+    """DISPLACEMENT payload: time (s), the frame's velocity (3,) in m/s and acceleration (3,)
+    in m/s2, point count, displacement (P, 3) in m."""
     d = np.ascontiguousarray(displacement, dtype=_F64).reshape(-1, 3)
-    return struct.pack("<dI", time, len(d)) + d.tobytes()
+    frame = [float(v) for vec in (frame_velocity, frame_acceleration) for v in vec]
+    if len(frame) != 6:
+        raise ValueError(f"the frame's velocity and acceleration need 3 values each, got "
+                         f"{len(frame)} in all")
+    return _DISPLACEMENT.pack(time, *frame, len(d)) + d.tobytes()
 
 
-def unpack_displacement(payload: bytes) -> tuple[float, np.ndarray]:
-    if len(payload) < 12:
+def unpack_displacement(payload: bytes) -> Displacement:
+    head = _DISPLACEMENT.size
+    if len(payload) < head:
         raise WireError(ErrorCode.BAD_FRAME,
-                        f"bad DISPLACEMENT: payload has {len(payload)} bytes, expected at least 12")
-    time, n = struct.unpack_from("<dI", payload)
-    _expect_size(payload, 12 + 24 * n, "DISPLACEMENT")
-    return time, _f64_array(payload, 12, 3 * n).reshape(n, 3)
+                        f"bad DISPLACEMENT: payload has {len(payload)} bytes, expected at least "
+                        f"{head}")
+    values = _DISPLACEMENT.unpack_from(payload)
+    n = values[7]
+    _expect_size(payload, head + 24 * n, "DISPLACEMENT")
+    return Displacement(values[0], np.array(values[1:4]), np.array(values[4:7]),
+                        _f64_array(payload, head, 3 * n).reshape(n, 3))
 
 
 def pack_write(time: float) -> bytes:

@@ -15,6 +15,7 @@ from a checkpoint when the guess was wrong). Writes under ``DIR/adapter/``: ``wh
 - :mod:`.listener`: the listening sockets, the pid file (one server per case), the endpoint file;
 - :mod:`.session`: one connection, its HELLO / REQUEST / WRITE / BYE;
 - :mod:`.timeline`: the animator advanced to the times asked for, with work-ahead;
+- :mod:`.frame`: the whale's frame (inflow and body force) at each served time;
 - :mod:`.store`: the restart state files;
 - :mod:`.recorder`: the surfaces, keypoints.csv and the statistics.
 """
@@ -32,6 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import cast
 
+from adapter.coupling.frame import Frame, FrameLine, fixed_frame_for
 from adapter.coupling.listener import (
     PID_NAME,
     Listener,
@@ -94,6 +96,9 @@ class StepServer:
     animator : an already built Animator for this scene (tests); None builds one.
     keep_serving : serve link after link until :meth:`stop` (tests, a server shared by
         successive runs); False ends the run with the case's link.
+    frame : the whale's frame (:class:`~adapter.coupling.frame.Frame`), answered at every new
+        served time and saved with the restart state; None: the scene's tethered inflow
+        (:func:`~adapter.coupling.frame.fixed_frame_for`).
 
     One link per case: while a client that said HELLO is connected, another HELLO gets ERROR 7
     (busy). Use :meth:`serve` (start, then run until the link is done) or :meth:`start` then
@@ -103,7 +108,8 @@ class StepServer:
 
     def __init__(self, case_dir, scene, *, tcp_port: int | None = None, host: str = "127.0.0.1",
                  token: str | None = None, map_tolerance: float = DEFAULT_TOLERANCE,
-                 first_client_timeout: float = 600.0, animator=None, keep_serving: bool = False):
+                 first_client_timeout: float = 600.0, animator=None, keep_serving: bool = False,
+                 frame: Frame | None = None):
         self.case_dir = Path(case_dir)
         self.scene = scene
         self.token = token or None
@@ -111,6 +117,7 @@ class StepServer:
         self.first_client_timeout = first_client_timeout
         self.animator = animator
         self.keep_serving = keep_serving
+        self.frame: Frame = frame if frame is not None else fixed_frame_for(scene)
         self.listener = Listener(self.case_dir, tcp_port, host)
         self.out_dir = self.case_dir / OUTPUT_DIR
         #: the patch's map onto the whale, reused while the patch holds
@@ -183,7 +190,8 @@ class StepServer:
               flush=True)
 
     def _build_parts(self) -> None:
-        """The animator (warmed up), its state store, the recorder and the timeline."""
+        """The animator (warmed up), its state store, the recorder and the timeline (with the
+        frame)."""
         if self.animator is None:
             from adapter.motion.animator import animator_for  # heavy: imported on demand
 
@@ -197,7 +205,9 @@ class StepServer:
         a.reset()
         store = StateStore(self.out_dir, fingerprint(self.scene, a.surface, a.dt), a.dt)
         recorder = Recorder(self.out_dir, a.surface)
-        self._parts = _Parts(Timeline(a, store, on_served=recorder.served), recorder, store)
+        timeline = Timeline(a, store, on_served=recorder.served,
+                            frames=FrameLine(self.frame, store))
+        self._parts = _Parts(timeline, recorder, store)
 
     def serve(self) -> int:
         """Start, then serve until the run ends; returns the exit code."""

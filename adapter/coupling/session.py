@@ -1,9 +1,10 @@
 """One connection to the step-server: reads frames and answers them (docs/protocol.md).
 
-HELLO opens the case's one link (the patch mapped onto the whale), REQUEST(t) gets the patch's
-displacement at t, WRITE(t) writes the whale and its state at a time OpenFOAM wrote, BYE ends
-the link. A protocol violation is answered with an ERROR frame and closes the connection; a
-client that vanishes without BYE is reported to the server (which then saves its state).
+HELLO opens the case's one link (the patch mapped onto the whale), REQUEST(t) gets the whale's
+frame and the patch's displacement at t, WRITE(t) writes the whale and its state at a time
+OpenFOAM wrote, BYE ends the link. A protocol violation is answered with an ERROR frame and
+closes the connection; a client that vanishes without BYE is reported to the server (which then
+saves its state).
 """
 
 from __future__ import annotations
@@ -181,13 +182,15 @@ class Session:
             payload = self.last_reply[1]
         else:
             try:
-                served = server.timeline.motion(t, self.last_t, restarted=self.first_request)
+                served = server.timeline.motion(t, self.last_t, restarted=self.first_request,
+                                                request=req)
             except UnstableError as exc:
                 server.model_failed(str(exc), self, frame.seq)
                 return False
             if self.patch is None:   # handle() lets only a linked session ask
                 raise WireError(ErrorCode.BAD_FRAME, "REQUEST before HELLO")
-            payload = wire.pack_displacement(t, self.patch.apply(served.disp))
+            payload = wire.pack_displacement(t, served.frame.velocity, served.frame.acceleration,
+                                             self.patch.apply(served.disp))
             self.last_reply = (t, payload)
         self.first_request = False
         self.last_t = t if self.last_t is None else max(self.last_t, t)

@@ -1,9 +1,16 @@
-"""The step-server's restart state: ``<case>/adapter/state_<t>.npz``, one per written time.
+"""The step-server's restart state: ``<case>/adapter/state_<t>.npz`` and ``frame_<t>.json``,
+one each per written time.
 
 A state file holds the animator's checkpoint right after computing the motion at ``t``, with the
 fingerprint of the scene, surface and internal step it belongs to: a restarted server resumes
 from the newest state that can reach the time OpenFOAM asks for, and passes over a file that is
 cut short, empty or another scene's.
+
+A frame file holds the whale's frame at ``t`` (:mod:`.frame`: its velocity and acceleration,
+and the frame's own state after answering ``t``) and, once the next REQUEST has come, that
+request's loads (``next``: the forces and moments of the step ending at ``t``). A restarted
+OpenFOAM's first REQUEST carries no loads (NaN); the frame is answered with ``next`` instead,
+so that a restart from a written time repeats the frame of the run that did not stop.
 """
 
 from __future__ import annotations
@@ -14,16 +21,21 @@ import json
 import logging
 import math
 import os
+import threading
 import zipfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from adapter.jsonfiles import dumps
+
 log = logging.getLogger(__name__)
 
 #: the layout of a state file; a file of another format is passed over
 STATE_FORMAT = 1
+#: the layout of a frame file
+FRAME_FORMAT = 1
 #: what reading a cut-short, empty or foreign state file raises
 UNREADABLE = (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile)
 
@@ -38,6 +50,19 @@ def atomic_write_text(path: Path, text: str) -> None:
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(text)
     os.replace(tmp, path)
+
+
+@dataclasses.dataclass(frozen=True)
+class FrameRecord:
+    """A frame file: the frame at ``time`` (``velocity``, ``acceleration``), the frame's own
+    ``state`` after answering it, and ``next``, the (12,) loads of the REQUEST that followed
+    (None until it came, or when they were not known)."""
+
+    time: float
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    state: dict
+    next: np.ndarray | None
 
 
 def copy_state(ckpt: dict) -> dict:
@@ -72,6 +97,9 @@ class StateStore:
         self.folder = Path(folder)
         self.fingerprint = fingerprint
         self.dt = float(dt)
+        self._frame_lock = threading.Lock()
+        #: the frame file last saved by this server, until the next REQUEST's loads are in it
+        self._frame_waiting: dict | None = None
 
     def path(self, t: float) -> Path:
         return self.folder / f"state_{time_name(t)}.npz"
@@ -87,6 +115,55 @@ class StateStore:
         with open(tmp, "wb") as f:
             np.savez(f, **arrays)
         os.replace(tmp, path)
+        if getattr(served, "frame_state", None) is not None:
+            self._save_frame(served)
+
+    # --- the frame files ------------------------------------------------------------------------
+
+    def frame_path(self, t: float) -> Path:
+        return self.folder / f"frame_{time_name(t)}.json"
+
+    def _save_frame(self, served) -> None:
+        record = {"format": FRAME_FORMAT, "fingerprint": self.fingerprint, "time": served.t,
+                  "velocity": served.frame.velocity.tolist(),
+                  "acceleration": served.frame.acceleration.tolist(),
+                  "state": served.frame_state, "next": None}
+        with self._frame_lock:
+            atomic_write_text(self.frame_path(served.t), dumps(record) + "\n")
+            self._frame_waiting = record
+
+    def add_frame_next(self, t: float, loads: np.ndarray) -> None:
+        """The loads of the REQUEST after ``t``: into ``t``'s frame file, if this server saved
+        it and they are not in it yet (finite loads only)."""
+        with self._frame_lock:
+            record, self._frame_waiting = self._frame_waiting, None
+            if record is None or record["time"] != t or not np.isfinite(loads).all():
+                return
+            record["next"] = [float(v) for v in loads]
+            atomic_write_text(self.frame_path(t), dumps(record) + "\n")
+
+    def frame_record(self, t: float) -> FrameRecord | None:
+        """The newest readable frame file of this scene at or before ``t``; None if none."""
+        candidates = []
+        for path in self.folder.glob("frame_*.json"):
+            try:
+                candidates.append((float(path.stem[len("frame_"):]), path))
+            except ValueError:      # not a time: someone else's file
+                continue
+        for at, path in sorted(candidates, reverse=True):
+            if at > t:
+                continue
+            try:
+                d = json.loads(path.read_text())
+                if d["format"] != FRAME_FORMAT or d["fingerprint"] != self.fingerprint:
+                    continue
+                nxt = None if d["next"] is None else np.array(d["next"], dtype=np.float64)
+                return FrameRecord(float(d["time"]), np.array(d["velocity"], dtype=np.float64),
+                                   np.array(d["acceleration"], dtype=np.float64),
+                                   dict(d["state"]), nxt)
+            except (*UNREADABLE, TypeError) as exc:
+                log.warning("ignoring unreadable frame file %s: %s", path, exc)
+        return None
 
     def newest_time(self) -> float:
         """The latest time with a saved state file (a restart may start there); 0 if none."""

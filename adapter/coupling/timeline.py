@@ -6,8 +6,9 @@ expected time (the last step repeated), and a wrong guess is undone from the che
 before it. The work-ahead starts when the caller says the answer is on its way
 (:meth:`Timeline.work_ahead`), not before: its compiled kernels hold the GIL, and the answer
 would wait for them. A time behind the animator is reached again from a saved state
-(:mod:`.store`) or by replay from t = 0. No sockets: the step-server's sessions ask
-:meth:`Timeline.motion`.
+(:mod:`.store`) or by replay from t = 0. Each new time also gets the whale's frame
+(:class:`~adapter.coupling.frame.FrameLine`), from that time's REQUEST. No sockets: the
+step-server's sessions ask :meth:`Timeline.motion`.
 """
 
 from __future__ import annotations
@@ -22,7 +23,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from adapter.coupling.protocol import ErrorCode, WireError
+from adapter.coupling.frame import STILL, FrameLine, FrameState
+from adapter.coupling.protocol import ErrorCode, Request, WireError
 from adapter.coupling.store import copy_state, time_name
 from adapter.errors import UnstableError
 
@@ -36,13 +38,16 @@ MAX_JUMP_CYCLES = 1000
 
 @dataclasses.dataclass
 class Served:
-    """The motion at one served time, and the animator state right after computing it."""
+    """The motion at one served time, and the animator state right after computing it; the
+    whale's frame there and the frame's state after it (None: no frame answered)."""
 
     t: float
     disp: np.ndarray       # (N, 3) node displacement (m)
     vel: np.ndarray        # (N, 3) node velocity (m/s)
     ckpt: dict
     animator_time: float
+    frame: FrameState = STILL
+    frame_state: dict | None = None
 
 
 @dataclasses.dataclass
@@ -78,13 +83,16 @@ class Timeline:
         (None: replay from t = 0).
     on_served : called as ``on_served(served, restart)`` for every newly computed time, with
         the animator lock held (``restart``: the first time, or one before the last served).
+    frames : the whale's frame, answered at every newly computed time (None: :data:`STILL`).
     """
 
     def __init__(self, animator, store=None,
-                 on_served: Callable[[Served, bool], None] | None = None):
+                 on_served: Callable[[Served, bool], None] | None = None,
+                 frames: FrameLine | None = None):
         self.animator = animator
         self.store = store
         self.on_served = on_served
+        self.frames = frames
         self.stats = TimelineStats()
         #: the model's failure message, once the whale has blown up (then nothing is computed)
         self.failure: str | None = None
@@ -121,11 +129,13 @@ class Timeline:
                 f"bad {what}: time {t:g} s is more than {MAX_JUMP_CYCLES} stroke cycles ahead of "
                 f"the whale (at {a.time:g} s); check the case's time settings")
 
-    def motion(self, t: float, last_t: float | None = None, restarted: bool = True) -> Served:
+    def motion(self, t: float, last_t: float | None = None, restarted: bool = True,
+               request: Request | None = None) -> Served:
         """The motion at t, computed once (a repeat gets the kept state).
 
         ``last_t`` is the latest time this client asked for (None: none yet) and ``restarted``
-        whether it may go back before the times already served (its first REQUEST). Raises
+        whether it may go back before the times already served (its first REQUEST);
+        ``request`` the REQUEST asking (its loads for the frame; None: not known). Raises
         :class:`WireError` (time backwards) and :class:`~adapter.errors.UnstableError`.
         """
         served = self.served(t)
@@ -146,7 +156,7 @@ class Timeline:
                 raise WireError(ErrorCode.TIME_BACKWARDS,
                                 f"time went backwards: t = {t!r} s is earlier than t = {last.t!r} "
                                 f"s already served (only a restarted client may go back)")
-            return self._compute(t)
+            return self._compute(t, request)
 
     def side_motion(self, t: float) -> Served:
         """The motion at a time never served, leaving the served line of states untouched."""
@@ -201,8 +211,8 @@ class Timeline:
         a = self.animator
         return t < a.time - a.dt
 
-    def _compute(self, t: float) -> Served:
-        """Advance (or rewind) the animator to t."""
+    def _compute(self, t: float, request: Request | None = None) -> Served:
+        """Advance (or rewind) the animator to t; the frame there."""
         t0 = time.perf_counter()
         a = self.animator
         self._generation += 1
@@ -229,6 +239,8 @@ class Timeline:
                 raise UnstableError(f"the whale's displacement at t = {t} s is not finite; "
                                     f"lower [integrator] dt_s")
             served = Served(t, disp, vel, copy_state(a.checkpoint()), float(a.time))
+        if self.frames is not None:
+            served.frame, served.frame_state = self.frames.answer(t, request, restart)
         compute_s = time.perf_counter() - t0
         if hit:
             self.stats.ahead_hits += 1

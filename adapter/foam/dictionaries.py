@@ -269,3 +269,40 @@ def inflow_ramp_table(speed: float, duration: float, points: int = 24) -> str:
     return "(" + " ".join(rows) + ")"
 
 
+
+
+#: the fvOptions entry of the frame's body force (docs/openfoam-plugin.md, "The whale's frame")
+FRAME_OPTION = "frameAcceleration"
+_FOAM_HEADER = """FoamFile
+{{
+    version     2.0;
+    format      ascii;
+    class       dictionary;
+    location    "{location}";
+    object      {name};
+}}
+"""
+
+
+def use_frame_inflow(case: Path) -> None:
+    """Switch a prepared case to the flow in the whale's frame: the inlet of ``U``
+    (``0.orig`` and ``0`` where they exist) becomes ``whaleFrameInletVelocity``, its value the
+    inlet's until the first exchange (a ramped inflow's start: its table is dropped, the frame
+    decides the inflow from the first step on), and ``system/fvOptions`` gets the
+    ``whaleFrameAcceleration`` body force. Both follow the frame the step-server sends with
+    every DISPLACEMENT (adapter.coupling.frame); a case not switched keeps its inflow."""
+    case = Path(case)
+    for zero in ("0.orig", "0"):
+        path = case / zero / "U"
+        if not path.is_file():
+            continue
+        d = parsed_dict(path)
+        value = d["boundaryField"]["inlet"].get("value", "uniform $Uinlet")
+        d["boundaryField"]["inlet"] = {"type": "whaleFrameInletVelocity", "value": value}
+        d.writeFile()
+    path = case / "system" / "fvOptions"
+    path.write_text(_FOAM_HEADER.format(location="system", name="fvOptions"))
+    d = parsed_dict(path)
+    d[FRAME_OPTION] = {"type": "whaleFrameAcceleration", "libs": [f'"{plugin_lib()}"'],
+                       "fields": "(U)"}
+    d.writeFile()

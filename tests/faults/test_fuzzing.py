@@ -66,7 +66,7 @@ def _fuzz_strategy(points):
     not_hello = st.sampled_from([m for m in MessageType if m != MessageType.HELLO])
     random_payload = st.builds(
         lambda k, p, s: (wire.encode_frame(k, p, s), {}),
-        not_hello, st.one_of(st.binary(max_size=70), st.binary(min_size=56, max_size=56)), u32)
+        not_hello, st.one_of(st.binary(max_size=120), st.binary(min_size=104, max_size=104)), u32)
     bad_hello = st.builds(
         lambda n_ranks, n, shift, tok, s: (wire.encode_frame(
             MessageType.HELLO, wire.pack_hello(n_ranks, points[:n] + shift, tok), s), {}),
@@ -83,10 +83,10 @@ def _fuzz_strategy(points):
     times = st.sampled_from(FUZZ_TIMES + (np.nan, np.inf, -np.inf, -1.0))
     request = times.map(lambda t: ("REQUEST", t))
     write = times.map(lambda t: (wire.encode_frame(MessageType.WRITE, wire.pack_write(t), 2), {}))
-    sizes = {MessageType.REQUEST: 56, MessageType.WRITE: 8}
+    sizes = {MessageType.REQUEST: 104, MessageType.WRITE: 8}
     wrong_size = st.builds(
         lambda k, p, s: (wire.encode_frame(k, p, s), {}),
-        st.sampled_from(list(sizes)), st.binary(max_size=70), u32).filter(
+        st.sampled_from(list(sizes)), st.binary(max_size=120), u32).filter(
         lambda f: len(f[0]) - wire.HEADER_SIZE != sizes[wire.decode_header(f[0][:16])[0]])
     server_only = st.builds(
         lambda k, p: (wire.encode_frame(k, p, 3), {}),
@@ -213,7 +213,8 @@ def test_fuzzed_frames_never_crash_or_lie(case, serve, animator, points, truth):
                 n, _, dt = wire.unpack_welcome(f.payload)
                 assert n <= len(points) and dt == animator.dt
             elif f.type == MessageType.DISPLACEMENT:
-                t, disp = wire.unpack_displacement(f.payload)
+                reply = wire.unpack_displacement(f.payload)
+                t, disp = reply.time, reply.displacement
                 assert f.seq in asked and asked[f.seq] == t, (f.seq, t, asked)
                 assert np.isfinite(disp).all()
                 assert np.array_equal(disp, truth(t)[:len(disp)]), f"wrong motion at t = {t}"

@@ -1,7 +1,7 @@
 /*---------------------------------------------------------------------------*\
     A command-line driver of the plugin's plain C++ client (stepServerClient,
-    adapter/foam/plugin/stepServerDisplacement/), for tests/test_client_wire.py:
-    the test compiles it with the client's two sources and runs it against a
+    adapter/foam/plugin/client/), for tests/test_client_wire.py:
+    the test compiles it with the client's four sources and runs it against a
     fake step-server that sends hand-built frames (docs/protocol.md).
 
     Usage:
@@ -9,12 +9,13 @@
     ENDPOINT: tcp:PORT (on 127.0.0.1) or a UNIX socket path. STEPs, run in
     order after connect():
         hello NRANKS TOKEN X,Y,Z,...     (the coordinates of every point)
-        request T PX PY PZ VX VY VZ
+        request T PX PY PZ VX VY VZ MPX MPY MPZ MVX MVY MVZ
         write T
         bye
     Reals are read with strtod (decimal, hex floats such as 0x1.8p-3, nan).
     One line per reply, reals in C99 hex (%a, exact):
         WELCOME nPoints maxMappingDistance internalStep
+        FRAME ux uy uz ax ay az
         DISPLACEMENT nValues d0 d1 ...
         ACK
         BYE
@@ -122,17 +123,24 @@ int main(int argc, char* argv[])
             }
             else if (step == "request")
             {
-                need(i, 7, argc, "request");
+                need(i, 13, argc, "request");
                 const double t = real(argv[i + 1]);
-                const std::array<double, 3> fp
-                    {real(argv[i + 2]), real(argv[i + 3]), real(argv[i + 4])};
-                const std::array<double, 3> fv
-                    {real(argv[i + 5]), real(argv[i + 6]), real(argv[i + 7])};
-                const std::vector<double> d = client.request(t, fp, fv);
-                std::printf("DISPLACEMENT %zu", d.size());
-                for (double x : d) std::printf(" %a", x);
+                stepServer::Loads loads;
+                for (int k = 0; k < 3; ++k)
+                {
+                    loads.pressureForce[k] = real(argv[i + 2 + k]);
+                    loads.viscousForce[k] = real(argv[i + 5 + k]);
+                    loads.pressureMoment[k] = real(argv[i + 8 + k]);
+                    loads.viscousMoment[k] = real(argv[i + 11 + k]);
+                }
+                const stepServer::Displacement r = client.request(t, loads);
+                std::printf("FRAME");
+                for (double x : r.frameVelocity) std::printf(" %a", x);
+                for (double x : r.frameAcceleration) std::printf(" %a", x);
+                std::printf("\nDISPLACEMENT %zu", r.d.size());
+                for (double x : r.d) std::printf(" %a", x);
                 std::printf("\n");
-                i += 7;
+                i += 13;
             }
             else if (step == "write")
             {

@@ -2,7 +2,8 @@
     stepServerLink: the one link per case. connect(): every rank's
     undeformed patch points gathered on the master, which connects and sends
     them all in one HELLO. exchange(): the loads summed over the ranks, the
-    master's REQUEST, each rank's slice of the DISPLACEMENT sent back to it.
+    master's REQUEST, each rank's slice of the DISPLACEMENT sent back to it,
+    the whale's frame to every rank's mesh (whaleFrame).
     Ranks without whale points take part in the collective calls only.
 \*---------------------------------------------------------------------------*/
 
@@ -14,6 +15,7 @@
 #include "pointFields.H"
 #include "points0MotionSolver.H"
 #include "loads/patchLoads.H"
+#include "frame/whaleFrame.H"
 #include "IPstream.H"
 #include "OPstream.H"
 #include "SubList.H"
@@ -43,40 +45,64 @@ vector nanVector()
     return vector(nan, nan, nan);
 }
 
-//- Pressure and viscous force (N) on this rank's faces of the patch
-//  (class patchLoads), NaN where not computable. Collective (grad(U)
-//  across processor patches): every rank calls it at every update.
-void patchForces(
-    const pointPatch& patch,
-    const scalar rhoInf,
-    vector& fp,
-    vector& fv
-)
+//- Pressure and viscous force (N) and their moments about the origin (N m)
+//  on this rank's faces of the patch (class patchLoads), NaN where not
+//  computable. Collective (grad(U) across processor patches): every rank
+//  calls it at every update.
+stepServer::Loads patchLoadSums(const pointPatch& patch, const scalar rhoInf)
 {
-    fp = nanVector();
-    fv = nanVector();
+    vector fp = nanVector(), fv = nanVector();
+    vector mp = nanVector(), mv = nanVector();
 
     const polyMesh& pMesh = meshOf(patch);
-    if (!isA<fvMesh>(pMesh))
+    const label patchi = pMesh.boundaryMesh().findPatchID(patch.name());
+    if (isA<fvMesh>(pMesh) && patchi >= 0)
     {
-        return;
-    }
-    const fvMesh& mesh = refCast<const fvMesh>(pMesh);
-    const label patchi = mesh.boundaryMesh().findPatchID(patch.name());
-    if (patchi < 0)
-    {
-        return;
+        const fvMesh& mesh = refCast<const fvMesh>(pMesh);
+        const patchLoads loads(mesh, rhoInf);
+        if (loads.hasPressure())
+        {
+            const vectorField f(loads.pressure(patchi));
+            fp = sum(f);
+            mp = sum(loads.moments(patchi, f));
+        }
+        if (loads.hasViscous())
+        {
+            const vectorField f(loads.viscous(patchi));
+            fv = sum(f);
+            mv = sum(loads.moments(patchi, f));
+        }
     }
 
-    const patchLoads loads(mesh, rhoInf);
-    if (loads.hasPressure())
+    // Summed over the ranks (a NaN on one rank makes the sum NaN)
+    stepServer::Loads sums;
+    for (vector* v : {&fp, &fv, &mp, &mv})
     {
-        fp = sum(loads.pressure(patchi));
+        reduce(*v, sumOp<vector>());
     }
-    if (loads.hasViscous())
+    for (direction k = 0; k < 3; ++k)
     {
-        fv = sum(loads.viscous(patchi));
+        sums.pressureForce[k] = fp[k];
+        sums.viscousForce[k] = fv[k];
+        sums.pressureMoment[k] = mp[k];
+        sums.viscousMoment[k] = mv[k];
     }
+    return sums;
+}
+
+
+//- All unknown: the first REQUEST of a connection
+stepServer::Loads unknownLoads()
+{
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    stepServer::Loads l;
+    for (auto* v :
+         {&l.pressureForce, &l.viscousForce, &l.pressureMoment, &l.viscousMoment
+         })
+    {
+        v->fill(nan);
+    }
+    return l;
 }
 
 } // End anonymous namespace
@@ -141,21 +167,14 @@ vectorField stepServerLink::scatter(const vectorField& all, const label nLocal)
 }
 
 
-vectorField stepServerLink::request(
-    const pointPatch& patch,
-    const vector& fp,
-    const vector& fv
-)
+vectorField
+stepServerLink::request(const pointPatch& patch, const stepServer::Loads& loads)
 {
     const Time& t = meshOf(patch).time();
-    std::vector<double> d;
+    stepServer::Displacement r;
     try
     {
-        d = client_->request(
-            t.value(),
-            {fp.x(), fp.y(), fp.z()},
-            {fv.x(), fv.y(), fv.z()}
-        );
+        r = client_->request(t.value(), loads);
     }
     catch (const stepServer::stepServerError& e)
     {
@@ -164,6 +183,12 @@ vectorField stepServerLink::request(
                              << " failed: " << e.what() << exit(FatalError);
     }
 
+    const auto& u = r.frameVelocity;
+    const auto& a = r.frameAcceleration;
+    frameVelocity_ = vector(u[0], u[1], u[2]);
+    frameAcceleration_ = vector(a[0], a[1], a[2]);
+
+    const std::vector<double>& d = r.d;
     vectorField all(d.size() / 3);
     forAll(all, i)
     {
@@ -286,23 +311,24 @@ stepServerLink::exchange(const pointPatch& patch, const scalar rhoInf)
 
     // Loads from the fields at this mesh update (last completed step),
     // summed over the ranks; NaN for the first request of a connection
-    vector fp, fv;
-    patchForces(patch, rhoInf, fp, fv);
-    reduce(fp, sumOp<vector>());
-    reduce(fv, sumOp<vector>());
+    stepServer::Loads loads = patchLoadSums(patch, rhoInf);
     if (firstRequest_)
     {
-        fp = nanVector();
-        fv = fp;
+        loads = unknownLoads();
         firstRequest_ = false;
     }
 
     vectorField all;
     if (Pstream::master())
     {
-        all = request(patch, fp, fv);
+        all = request(patch, loads);
     }
     vectorField mine(scatter(all, patch.size()));
+
+    // The whale's frame, the master's, on every rank's mesh
+    Pstream::scatter(frameVelocity_);
+    Pstream::scatter(frameAcceleration_);
+    whaleFrame::set(meshOf(patch), frameVelocity_, frameAcceleration_);
 
     if (Pstream::master())
     {

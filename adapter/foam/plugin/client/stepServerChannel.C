@@ -1,5 +1,5 @@
 /*---------------------------------------------------------------------------*\
-    stepServerChannel, the frames of docs/protocol.md (version 2) on the
+    stepServerChannel, the frames of docs/protocol.md (version 3) on the
     socket stream (stepServerStream.C); the byte encoding is in
     stepServerWire.H.
 \*---------------------------------------------------------------------------*/

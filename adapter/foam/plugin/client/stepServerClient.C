@@ -1,6 +1,6 @@
 /*---------------------------------------------------------------------------*\
     stepServerClient, the messages: the payloads of docs/protocol.md
-    (version 2). The frames are in stepServerChannel.C, the socket stream in
+    (version 3). The frames are in stepServerChannel.C, the socket stream in
     stepServerStream.C, the byte encoding in stepServerWire.H.
 \*---------------------------------------------------------------------------*/
 
@@ -88,23 +88,27 @@ Welcome stepServerClient::hello(
 }
 
 
-std::vector<double> stepServerClient::request(
-    double t,
-    const std::array<double, 3>& pressureForce,
-    const std::array<double, 3>& viscousForce
-)
+Displacement stepServerClient::request(double t, const Loads& loads)
 {
     std::vector<unsigned char> p;
-    p.reserve(56);
+    p.reserve(104);
     putF64(p, t);
-    for (double f : pressureForce) putF64(p, f);
-    for (double f : viscousForce) putF64(p, f);
+    for (const auto* v :
+         {&loads.pressureForce,
+          &loads.viscousForce,
+          &loads.pressureMoment,
+          &loads.viscousMoment})
+    {
+        for (double x : *v) putF64(p, x);
+    }
 
     const std::uint32_t seq = channel_.sendFrame(REQUEST, p);
     const auto r = channel_.recvReply(seq, DISPLACEMENT, "REQUEST");
 
-    const std::size_t expected = 12 + 24 * nPoints_;
-    if (r.size() < 12 || r.size() != expected)
+    // f64 time, 3 f64 frame velocity, 3 f64 frame acceleration, u32 nPoints
+    constexpr std::size_t head = 7 * 8 + 4;
+    const std::size_t expected = head + 24 * nPoints_;
+    if (r.size() < head || r.size() != expected)
     {
         fail(
             "malformed DISPLACEMENT: payload of " + std::to_string(r.size())
@@ -113,7 +117,7 @@ std::vector<double> stepServerClient::request(
         );
     }
     const double rt = getF64(r.data());
-    const std::uint32_t n = getU32(r.data() + 8);
+    const std::uint32_t n = getU32(r.data() + 56);
     if (n != nPoints_)
     {
         fail(
@@ -128,10 +132,23 @@ std::vector<double> stepServerClient::request(
         os << "DISPLACEMENT for time " << rt << ", requested " << t;
         fail(os.str());
     }
-    std::vector<double> d(3 * nPoints_);
+    Displacement reply;
+    for (std::size_t k = 0; k < 3; ++k)
+    {
+        reply.frameVelocity[k] = getF64(r.data() + 8 + 8 * k);
+        reply.frameAcceleration[k] = getF64(r.data() + 32 + 8 * k);
+        if (!std::isfinite(reply.frameVelocity[k])
+            || !std::isfinite(reply.frameAcceleration[k]))
+        {
+            fail("DISPLACEMENT carries a non-finite frame velocity or "
+                 "acceleration");
+        }
+    }
+    std::vector<double>& d = reply.d;
+    d.resize(3 * nPoints_);
     for (std::size_t i = 0; i < d.size(); ++i)
     {
-        d[i] = getF64(r.data() + 12 + 8 * i);
+        d[i] = getF64(r.data() + head + 8 * i);
         if (!std::isfinite(d[i]))
         {
             fail(
@@ -140,7 +157,7 @@ std::vector<double> stepServerClient::request(
             );
         }
     }
-    return d;
+    return reply;
 }
 
 

@@ -11,7 +11,7 @@
 \*---------------------------------------------------------------------------*/
 
 #include "patchLoads.H"
-#include "turbulentTransportModel.H"
+#include "fvcGrad.H"
 
 // * * * * * * * * * * * * * * * Static Data Members * * * * * * * * * * * * //
 
@@ -27,16 +27,14 @@ Foam::patchLoads::patchLoads(
     mesh_(mesh),
     rhoInf_(rhoInf),
     pPtr_(mesh.findObject<volScalarField>(pName)),
-    tdevReff_()
+    turbPtr_(mesh.findObject<incompressible::turbulenceModel>(
+        incompressible::turbulenceModel::propertiesName
+    )),
+    tgradU_()
 {
-    typedef incompressible::turbulenceModel icoTurbModel;
-
-    const icoTurbModel* turbPtr =
-        mesh.findObject<icoTurbModel>(icoTurbModel::propertiesName);
-
-    if (turbPtr)
+    if (turbPtr_)
     {
-        tdevReff_ = turbPtr->devReff();
+        tgradU_ = fvc::grad(turbPtr_->U());
     }
 }
 
@@ -57,9 +55,20 @@ Foam::tmp<Foam::vectorField> Foam::patchLoads::pressure(const label patchi
 
 Foam::tmp<Foam::vectorField> Foam::patchLoads::viscous(const label patchi) const
 {
-    return rhoInf_
-        * (mesh_.Sf().boundaryField()[patchi]
-           & tdevReff_().boundaryField()[patchi]);
+    // devReff's value on the patch, the same operations in the same order:
+    // (-nuEff)*dev(twoSymm(grad(U)))
+    const symmTensorField devReff(
+        (-turbPtr_->nuEff(patchi))
+        * dev(twoSymm(tgradU_().boundaryField()[patchi]))
+    );
+    return rhoInf_ * (mesh_.Sf().boundaryField()[patchi] & devReff);
+}
+
+
+Foam::tmp<Foam::vectorField>
+Foam::patchLoads::moments(const label patchi, const vectorField& f) const
+{
+    return mesh_.C().boundaryField()[patchi] ^ f;
 }
 
 
