@@ -20,8 +20,9 @@ pytestmark = [pytest.mark.openfoam, pytest.mark.plugin, pytest.mark.slow]
 
 
 def free_smoke_case(tmp_path, **free):
-    """The smoke case released at t = 0 (no lighter mass unless asked), its inflow the frame's."""
-    scene = load_scene(preset="smoke").replace(case={"cycles": 0.1},
+    """The smoke case released at t = 0 in a uniform stream at the scene's speed (no ramp, no
+    lighter mass unless asked), its inflow the frame's."""
+    scene = load_scene(preset="smoke").replace(case={"cycles": 0.1, "inflow_ramp_cycles": 0.0},
                                                free={"enabled": True, "light": 1.0, **free})
     case = tmp_path / "case"
     prepare_case(scene, case)

@@ -23,6 +23,7 @@ from a checkpoint when the guess was wrong). Writes under ``DIR/adapter/``: ``wh
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import os
 import selectors
@@ -53,6 +54,7 @@ from adapter.coupling.session import Links, Session
 from adapter.coupling.store import StateStore, fingerprint, time_name
 from adapter.coupling.timeline import MAX_JUMP_CYCLES, Timeline
 from adapter.errors import ServerStartError
+from adapter.jsonfiles import CASE_RECORD
 from adapter.options import in_file, in_folder, port, positive
 from adapter.scene import PRESETS
 
@@ -362,5 +364,16 @@ def _cmd_serve(args: argparse.Namespace) -> int:
     token = resolve_token(args.token_file, args.token)
     server = StepServer(args.case, scene, tcp_port=args.tcp, host=args.host, token=token,
                         map_tolerance=args.map_tolerance, first_client_timeout=args.wait,
-                        keep_serving=args.keep_serving)
+                        keep_serving=args.keep_serving, frame=case_frame(Path(args.case)))
     return server.serve()
+
+
+def case_frame(case: Path):
+    """The frame a case's record asks for: the free whale's (adapter/coupling/surge.py) when
+    it is released, else None (the scene's fixed inflow)."""
+    from adapter.coupling.surge import FRAME_LOG, frame_of
+
+    path = case / CASE_RECORD
+    if not path.is_file():
+        return None
+    return frame_of(json.loads(path.read_text()), log_path=case / OUTPUT_DIR / FRAME_LOG)

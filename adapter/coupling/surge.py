@@ -36,6 +36,8 @@ from adapter.jsonfiles import SYMMETRY_PLANE
 
 #: the axes a free whale may move along: surge (x) always, heave (z) when asked
 SURGE, HEAVE = 0, 2
+#: the frame's log in a case's adapter/ folder (:class:`SurgeFrame`'s ``log_path``)
+FRAME_LOG = "frame.dat"
 
 
 def spheroid_added_mass(length: float, diameter: float) -> tuple[float, float]:

@@ -284,15 +284,16 @@ _FOAM_HEADER = """FoamFile
 """
 
 
-def use_frame_inflow(case: Path) -> None:
+def use_frame_inflow(case: Path, folders=("0.orig", "0")) -> None:
     """Switch a prepared case to the flow in the whale's frame: the inlet of ``U``
-    (``0.orig`` and ``0`` where they exist) becomes ``whaleFrameInletVelocity``, its value the
+    (in ``folders`` where they exist: ``0.orig`` and ``0``, or a time folder to start from)
+    becomes ``whaleFrameInletVelocity``, its value the
     inlet's until the first exchange (a ramped inflow's start: its table is dropped, the frame
     decides the inflow from the first step on), and ``system/fvOptions`` gets the
     ``whaleFrameAcceleration`` body force. Both follow the frame the step-server sends with
     every DISPLACEMENT (adapter.coupling.frame); a case not switched keeps its inflow."""
     case = Path(case)
-    for zero in ("0.orig", "0"):
+    for zero in folders:
         path = case / zero / "U"
         if not path.is_file():
             continue

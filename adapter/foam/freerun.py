@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from adapter.coupling.surge import inertia_of
+from adapter.coupling.surge import FRAME_LOG, inertia_of
 from adapter.errors import CaseError
 from adapter.foam import loads as ld
 from adapter.foam.case import Case
@@ -33,8 +33,6 @@ from adapter.foamfiles import time_dirs
 
 FREE = "free"
 GLIDING_FREE = "gliding-free"
-#: the frame's log in a case's adapter/ folder: one row per served time
-FRAME_LOG = "frame.dat"
 FRAME_COLUMNS = ("Time", "Ux", "Uz", "ax", "az", "Fx", "Fz", "light")
 
 
