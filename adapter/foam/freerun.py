@@ -180,8 +180,10 @@ def free_figures(free: Path, glide_sp: Path, tethered_drag: float) -> dict:
 
     power, drag_sp = swim_mean("total:P"), glide_mean("total:Fx")
     mass = inertia_of(record).mass_kg
-    flukes = ("whale.flukes:Fx" in data) and ("whale.flukes:P" in data)
-    body = "whale.body:Fx" in data and "whale.body:Fx" in gd
+    # a region the mesh has no faces of (a coarse mesh's flukes) has no figures
+    flukes = "whale.flukes:P" in data and swim_mean("whale.flukes:P") > 0
+    body = ("whale.body:Fx" in data and "whale.body:Fx" in gd
+            and glide_mean("whale.body:Fx") > 0)
     return {
         "speed_m_s": u_sp,
         "speed_change_last_two_cycles": float(abs(speed[-1] - speed[-2]) / u_sp)
