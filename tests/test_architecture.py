@@ -23,6 +23,7 @@ ROOMS = {
     "adapter.cli": "front",
     "adapter.errors": "base",
     "adapter.scene": "base",
+    "adapter.scenevalues": "base",     # the scene's value checks (a leaf: adapter.errors)
     "adapter.resources": "base",
     "adapter.vtkfiles": "base",         # a leaf: imports only adapter.errors
     "adapter.foamfiles": "base",        # a leaf: the time-folder scan

@@ -152,3 +152,17 @@ def test_the_true_mass_takes_over_once_the_mean_force_is_small():
     never = SurgeFrame(1.3, Inertia(m, 0.0, 0.0), Schedule(0.0, 1.0, 0.2, 100.0))
     run(never, with_added_mass(0.0, lambda u: c * (u - u_sp)), 12.0, DT)
     assert never.true_from is None
+
+
+def test_heave_moves_the_frame_up_and_down_with_its_own_added_mass():
+    # a steady upward force of 860 N on a whale of 1000 kg with 860 kg of heave added mass:
+    # the frame's vertical velocity (the water's, seen from the whale) falls at 860 / 1860
+    inertia = Inertia(1000.0, 80.0, 860.0)
+    frame = SurgeFrame(1.3, inertia, Schedule(0.0, 1.0), heave=True)
+    flow = lambda s: (0.0 + 80.0 * s.acceleration[0], 860.0 + 860.0 * s.acceleration[2])  # noqa: E731
+    rows = run(frame, flow, 4.0, DT)
+    t, u, w = rows[-1]
+    assert w == pytest.approx(-860.0 / 1860.0 * (t - DT), rel=1e-9)
+    assert u == pytest.approx(1.3)
+    surge_only = SurgeFrame(1.3, inertia, Schedule(0.0, 1.0))
+    assert run(surge_only, flow, 4.0, DT)[-1, 2] == 0.0

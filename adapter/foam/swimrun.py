@@ -10,12 +10,15 @@
    the last two cycles; at most ``case.cycles`` cycles.
 
 From the loads of both (adapter/foam/loads.py): mean drag gliding, mean Fx and power swimming,
-Froude efficiency and cost of transport, with the spike checks and van der Hoop et al.'s
-reference drag; the drag, Fx and power also per body region (body, flippers, flukes:
-``swimming_cost/regions``), each region's gliding drag beside an estimate from its own size
+the tethered whale's Froude efficiency and cost of transport, with the spike checks and van
+der Hoop et al.'s reference drag; the drag, Fx and power also per body region (body, flippers,
+flukes: ``swimming_cost/regions``), each region's gliding drag beside an estimate from its own size
 (:mod:`adapter.foam.estimates`). Written into ``<case>/adapter-summary.json`` under
 ``"swimming_cost"``, drawn in ``<case>/forces.png`` and put on ``<case>/report.html``
 (:mod:`adapter.foam.report`).
+
+With ``free.enabled`` two more runs follow, the free whale and gliding at its speed
+(:mod:`adapter.foam.freerun`), their figures under ``"self_propelled"``.
 """
 
 from __future__ import annotations
