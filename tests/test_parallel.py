@@ -88,9 +88,9 @@ def test_ranks_zero_and_np_auto_are_the_machines_cores(tmp_path, smoke_scene, sm
     assert ranks_option("auto") == 3 and ranks_option("2") == 2
     with pytest.raises(argparse.ArgumentTypeError, match="at least 1"):
         ranks_option("0")
-    # the built-in default is the machine's cores; the presets say 1 until measured
-    assert Scene().case.ranks == 0
-    assert load_scene(preset="default").case.ranks == load_scene(preset="smoke").case.ranks == 1
+    # the built-in default and the default scene are the machine's cores; smoke says 1
+    assert Scene().case.ranks == 0 == load_scene(preset="default").case.ranks
+    assert load_scene(preset="smoke").case.ranks == 1
 
 
 def test_a_launcher_gets_np_substituted_or_appended():

@@ -66,7 +66,8 @@ def _refused(tmp_path, text, message):
                                          "'paperish'"),
     ("springs = 3\n", "springs: expected a table, got 3 (int)"),
     ("base_dir = \"/\"\n", "base_dir: unknown key; allowed here: name, geometry, regions, "
-                           "springs, stroke, rigid, calibration, integrator, flow, output, case, free"),
+                           "springs, stroke, rigid, calibration, integrator, flow, output, "
+                           "case, free"),
     ("[flow]\nspeed = 1\n", "flow.speed: unknown key; allowed here: speed_m_s, rho_kg_m3, "
                             "nu_m2_s"),
     ("preset = \"smoke\"\n[stroke]\npivot = 1.5\n",
