@@ -248,6 +248,9 @@ def run_free(case: Path, glide: Path, drag: float, runner) -> dict:
                                               float(record["gliding_from_s"]) + 0.5 * period))
     figures = free_figures(free, glide_sp, drag)
     figures["settled"] = settled(free, drag) is not None
+    from adapter.reports.render import plot_free
+
+    plot_free(read_frame_log(free), ld.read_loads(free), period, figures, case / "free.png")
     figures["free_run"] = {k: f_summary.get(k) for k in ("steps", "flow_wall_s",
                                                         "stopped_because")}
     figures["gliding_at_speed_run"] = {k: g_summary.get(k) for k in ("steps", "flow_wall_s",
