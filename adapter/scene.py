@@ -228,7 +228,10 @@ class Free:
     cycles: float = field(default=10.0, metadata={"check": _positive})   # at most, after release
     #: surge added mass, fraction of the mass (0: the prolate spheroid of the body's L and D)
     added_mass: float = field(default=0.0, metadata={"check": _non_negative})
-    heave: bool = False        #: also free up and down (z), its own added mass
+    #: recoil (docs/free-swimming.md): the swing of the vertical force moves the whale up and
+    #: down, that of the pitching moment turns it about its centre of mass
+    heave: bool = False
+    pitch: bool = False
 
 
 @dataclass(frozen=True)

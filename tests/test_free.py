@@ -50,3 +50,14 @@ def test_the_inflow_follows_the_momentum_balance(tmp_path):
     assert mass * change == pytest.approx(impulse, rel=0.01)
     # and the step-server's log agrees with what OpenFOAM applied at the inlet
     assert frame["Ux"][frame["Time"] <= t_end + 1e-9][-1] == pytest.approx(u_end, rel=1e-6)
+
+
+def test_heave_and_pitch_recoil_run_in_the_flow(tmp_path):
+    case, scene = free_smoke_case(tmp_path, heave=True, pitch=True)
+    run_case(case, progress=False)
+    frame = read_frame_log(case)
+    t_end, u_end = written_inlet_speed(case)
+    assert frame["Time"][-1] == pytest.approx(t_end)
+    # the whale pitched and heaved a little, and stayed finite
+    assert 0 < abs(frame["pitch"]).max() < 0.1 and abs(frame["Uz"]).max() > 0
+    assert abs(u_end - scene.flow.speed_m_s) < 0.5

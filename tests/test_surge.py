@@ -10,7 +10,15 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from adapter.coupling.surge import Inertia, Schedule, SurgeFrame, spheroid_added_mass
+from adapter.coupling.frame import FrameState
+from adapter.coupling.surge import (
+    Inertia,
+    PitchRecoil,
+    Schedule,
+    SurgeFrame,
+    spheroid_added_inertia,
+    spheroid_added_mass,
+)
 
 NAN3 = (math.nan,) * 3
 #: a step that adds up exactly in binary, so that two runs meet the same times
@@ -154,15 +162,71 @@ def test_the_true_mass_takes_over_once_the_mean_force_is_small():
     assert never.true_from is None
 
 
-def test_heave_moves_the_frame_up_and_down_with_its_own_added_mass():
-    # a steady upward force of 860 N on a whale of 1000 kg with 860 kg of heave added mass:
-    # the frame's vertical velocity (the water's, seen from the whale) falls at 860 / 1860
-    inertia = Inertia(1000.0, 80.0, 860.0)
-    frame = SurgeFrame(1.3, inertia, Schedule(0.0, 1.0), heave=True)
-    flow = lambda s: (0.0 + 80.0 * s.acceleration[0], 860.0 + 860.0 * s.acceleration[2])  # noqa: E731
-    rows = run(frame, flow, 4.0, DT)
-    t, u, w = rows[-1]
-    assert w == pytest.approx(-860.0 / 1860.0 * (t - DT), rel=1e-9)
-    assert u == pytest.approx(1.3)
-    surge_only = SurgeFrame(1.3, inertia, Schedule(0.0, 1.0))
-    assert run(surge_only, flow, 4.0, DT)[-1, 2] == 0.0
+def _swing(t_end: float, period: float, frame: SurgeFrame, force, moment=lambda t: 0.0):
+    """Run a frame under a vertical force and a pitching moment given in time (the flow's
+    added-mass reactions included), returning (t, w, pitch) rows."""
+    t, rows = 0.0, []
+    frame.answer(0.0, SimpleNamespace(pressure_force=NAN3, viscous_force=NAN3,
+                                      pressure_moment=NAN3, viscous_moment=NAN3))
+    state = frame._state_now()
+    while t < t_end - 1e-12:
+        pitch = frame.pitch
+        fz = force(t) + frame.inertia.added_heave_kg * state.acceleration[2]
+        my = moment(t) - (pitch.added * pitch.alpha if pitch is not None else 0.0)
+        t += DT
+        state = frame.answer(t, SimpleNamespace(
+            pressure_force=(0.0, 0.0, fz), viscous_force=(0.0, 0.0, 0.0),
+            pressure_moment=(0.0, my, 0.0), viscous_moment=(0.0, 0.0, 0.0)))
+        rows.append((t, state.velocity[2], state.pitch))
+    return np.array(rows)
+
+
+def test_heave_recoil_swings_with_the_force_and_holds_its_depth():
+    # a vertical force F0 sin(w t) on m + m_a: the frame's vertical velocity swings by
+    # F0 / ((m + m_a) w) (the trim, at w / 8, takes 0.8 % off); a steady force moves nothing
+    m, m_a, f0, period = 1000.0, 860.0, 500.0, 2.0
+    w = 2 * math.pi / period
+    inertia = Inertia(m, 0.0, m_a)
+    rows = _swing(40.0, period, SurgeFrame(1.3, inertia, Schedule(0.0, period), heave=True),
+                  lambda t: f0 * math.sin(w * t))
+    late = rows[rows[:, 0] > 30.0]
+    assert 0.5 * np.ptp(late[:, 1]) == pytest.approx(f0 / ((m + m_a) * w), rel=0.03)
+    steady = _swing(20.0, period, SurgeFrame(1.3, inertia, Schedule(0.0, period), heave=True),
+                    lambda t: f0)
+    assert abs(steady[-1, 1]) < 0.02 * f0 / (m + m_a) * period
+    assert np.all(rows[:, 2] == 0.0)          # no pitch asked: none
+
+
+def test_pitch_recoil_swings_by_the_moment_over_the_inertia():
+    # M0 sin(w t) on I + I_a: the pitch swings by M0 / ((I + I_a) w^2) (the trim adds 1.6 %)
+    inertia, added, m0, period = 2.0e5, 1.0e5, 3000.0, 2.0
+    w = 2 * math.pi / period
+    recoil = PitchRecoil(inertia, added, (7.0, 0.0, 0.0), period)
+    frame = SurgeFrame(1.3, Inertia(1000.0, 0.0, 0.0), Schedule(0.0, period), pitch=recoil)
+    rows = _swing(40.0, period, frame, lambda t: 0.0, lambda t: m0 * math.sin(w * t))
+    late = rows[rows[:, 0] > 30.0]       # the start's drift gone (the trim's time 1 / (w / 8))
+    assert 0.5 * np.ptp(late[:, 2]) == pytest.approx(m0 / ((inertia + added) * w * w),
+                                                     rel=0.04)
+    steady = _swing(24.0, period, SurgeFrame(1.3, Inertia(1000.0, 0.0, 0.0),
+                                             Schedule(0.0, period),
+                                             pitch=PitchRecoil(inertia, added, (7, 0, 0), period)),
+                    lambda t: 0.0, lambda t: m0)
+    assert abs(steady[-1, 2]) < 0.05 * m0 / ((inertia + added) * w * w)
+
+
+def test_lambs_added_inertia_of_spheroids():
+    # Lamb, section 373, table: a/b, k'
+    for ratio, k in ((1.50, 0.094), (1.99, 0.240), (2.99, 0.465), (3.99, 0.608),
+                     (6.01, 0.764), (9.97, 0.883)):
+        assert spheroid_added_inertia(ratio, 1.0) == pytest.approx(k, abs=4e-3)
+
+
+def test_a_pitched_whale_turns_about_its_centre():
+    state = FrameState(np.zeros(3), np.zeros(3), math.radians(2.0), (7.0, 0.0, 0.5))
+    rest = np.array([[0.0, 0.0, 0.5], [14.0, 1.0, 0.5], [7.0, 0.0, 0.5]])
+    moved = rest + state.rotated(np.zeros((3, 3)), rest)
+    # the rostrum (7 m ahead of the centre, at -x) rises by 7 sin 2 deg; the centre stays
+    assert moved[0] == pytest.approx([7 - 7 * math.cos(math.radians(2)), 0.0,
+                                      0.5 + 7 * math.sin(math.radians(2))])
+    assert moved[2] == pytest.approx(rest[2])
+    assert np.linalg.norm(moved[1] - moved[2]) == pytest.approx(np.linalg.norm(rest[1] - rest[2]))

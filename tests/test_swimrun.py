@@ -129,7 +129,7 @@ def test_efficiency_and_cost_of_transport_worked_example():
 
 
 def test_body_dimensions_of_a_box():
-    """A 4 x 2 x 1 m box: area 28 m2, volume 8 m3, height 1 m."""
+    """A 4 x 2 x 1 m box: area 28 m2, volume 8 m3, height 1 m, centroid and pitch inertia."""
     from adapter.body.surface import WhaleSurface
 
     p = np.array([[x, y, z] for x in (0, 4) for y in (-1, 1) for z in (-0.5, 0.5)], float)
@@ -142,6 +142,9 @@ def test_body_dimensions_of_a_box():
     assert d["wetted_area_m2"] == pytest.approx(28.0)
     assert d["volume_m3"] == pytest.approx(8.0)
     assert d["diameter_m"] == pytest.approx(1.0)
+    # a box's centroid and its moment about y per density: V (lx^2 + lz^2) / 12
+    assert d["centroid_m"] == pytest.approx([2.0, 0.0, 0.0], abs=1e-12)
+    assert d["pitch_inertia_m5"] == pytest.approx(8.0 * (16.0 + 1.0) / 12.0)
 
 
 SCENE = """

@@ -13,7 +13,8 @@ acceleration.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
@@ -39,14 +40,31 @@ class FrameState:
 
     velocity: np.ndarray
     acceleration: np.ndarray
+    #: the whale's pitch recoil (rad): a turn about +y through ``centre`` (m), the rostrum (at -x
+    #: of it) rising for a positive pitch, added to the stroke's displacement (:meth:`rotated`)
+    pitch: float = 0.0
+    centre: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self):
         object.__setattr__(self, "velocity", _vector(self.velocity, "velocity"))
         object.__setattr__(self, "acceleration", _vector(self.acceleration, "acceleration"))
+        object.__setattr__(self, "pitch", float(self.pitch))
+        object.__setattr__(self, "centre", _vector(self.centre, "centre"))
 
     def finite(self) -> bool:
         """Whether every component is finite."""
-        return bool(np.isfinite(self.velocity).all() and np.isfinite(self.acceleration).all())
+        return bool(np.isfinite(self.velocity).all() and np.isfinite(self.acceleration).all()
+                    and math.isfinite(self.pitch))
+
+    def rotated(self, displacement: np.ndarray, rest: np.ndarray) -> np.ndarray:
+        """The displacement (N, 3) of points at ``rest`` (N, 3) with the whole whale turned by
+        the pitch about the y axis through the centre (the displacement itself when 0)."""
+        if self.pitch == 0.0:
+            return displacement
+        c, s = math.cos(self.pitch), math.sin(self.pitch)
+        r = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])   # about +y
+        moved = rest + displacement - self.centre
+        return (self.centre + moved @ r.T) - rest
 
 
 class Frame(Protocol):
@@ -130,7 +148,10 @@ class FrameLine:
                 self.frame.restore(_json_copy(record.state))
                 if record.time == t:         # served before: the same frame again
                     self._last = t
-                    return FrameState(record.velocity, record.acceleration), record.state
+                    return FrameState(record.velocity, record.acceleration,
+                                      float(record.state.get("pitch", 0.0)),
+                                      record.state.get("pitch_centre", (0.0, 0.0, 0.0))), \
+                        record.state
                 if not request.known() and record.next is not None:
                     request = _with_loads(request, record.next)
             else:

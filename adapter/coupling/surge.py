@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from adapter.coupling.frame import FrameState
+from adapter.errors import CaseError
 from adapter.jsonfiles import SYMMETRY_PLANE
 
 #: the axes a free whale may move along: surge (x) always, heave (z) when asked
@@ -52,6 +53,22 @@ def spheroid_added_mass(length: float, diameter: float) -> tuple[float, float]:
     a0 = 2.0 * (1.0 - e * e) / e ** 3 * (0.5 * log_term - e)
     b0 = 1.0 / (e * e) - (1.0 - e * e) / (2.0 * e ** 3) * log_term
     return a0 / (2.0 - a0), b0 / (2.0 - b0)
+
+
+def spheroid_added_inertia(length: float, diameter: float) -> float:
+    """Added moment of inertia of a prolate spheroid turning about a diameter, as a fraction of
+    the moment of inertia of its displaced fluid (Lamb, section 373: k' = e^4 (b0 - a0) /
+    ((2 - e^2) (2 e^2 - (2 - e^2) (b0 - a0))))."""
+    if not (length > diameter > 0):
+        raise ValueError(f"a prolate spheroid needs length > diameter > 0, got {length!r}, "
+                         f"{diameter!r}")
+    e2 = 1.0 - (diameter / length) ** 2
+    e = math.sqrt(e2)
+    log_term = math.log((1.0 + e) / (1.0 - e))
+    a0 = 2.0 * (1.0 - e2) / e ** 3 * (0.5 * log_term - e)
+    b0 = 1.0 / e2 - (1.0 - e2) / (2.0 * e ** 3) * log_term
+    d = b0 - a0
+    return e2 * e2 * d / ((2.0 - e2) * (2.0 * e2 - (2.0 - e2) * d))
 
 
 @dataclass(frozen=True)
@@ -114,7 +131,8 @@ class SurgeFrame:
     """
 
     def __init__(self, speed: float, inertia: Inertia, schedule: Schedule, heave: bool = False,
-                 force_scale: float = 1.0, log_path: Path | None = None):
+                 force_scale: float = 1.0, log_path: Path | None = None,
+                 pitch: PitchRecoil | None = None):
         self.inertia = inertia
         self.schedule = schedule
         self.axes = (SURGE, HEAVE) if heave else (SURGE,)
@@ -126,6 +144,7 @@ class SurgeFrame:
         #: when the true mass took over (None: not yet)
         self.true_from: float | None = None
         self.log_path = log_path
+        self.pitch = pitch
 
     # --- the Frame interface -------------------------------------------------------------
 
@@ -134,15 +153,27 @@ class SurgeFrame:
         last served time); a first request (no forces: NaN) keeps the acceleration."""
         if self.t is None or time <= self.t or time <= self.schedule.release_s:
             self.t = time if self.t is None else max(self.t, time)
-            return FrameState(self.velocity.copy(), self.acceleration.copy())
+            return self._state_now()
         force = (np.asarray(request.pressure_force, float)
                  + np.asarray(request.viscous_force, float)) * self.force_scale
         if np.all(np.isfinite(force[list(self.axes)])):
             self.acceleration = self._acceleration(force, self.t)
+        if self.pitch is not None:
+            moment = (np.asarray(request.pressure_moment, float)
+                      + np.asarray(request.viscous_moment, float)) * self.force_scale
+            about = moment[1] - float(np.cross(self.pitch.centre, force)[1])
+            if np.isfinite(about):
+                self.pitch.advance(about, self.t, time - self.t)
         self.velocity = self.velocity + self.acceleration * (time - self.t)
         self.t = time
         self._log(force)
-        return FrameState(self.velocity.copy(), self.acceleration.copy())
+        return self._state_now()
+
+    def _state_now(self):
+        if self.pitch is None:
+            return FrameState(self.velocity.copy(), self.acceleration.copy())
+        return FrameState(self.velocity.copy(), self.acceleration.copy(), self.pitch.theta,
+                          self.pitch.centre)
 
     def _log(self, force: np.ndarray) -> None:
         if self.log_path is None:
@@ -152,15 +183,18 @@ class SurgeFrame:
         light = float(self.light_now)
         with open(self.log_path, "a") as f:
             if new:
-                f.write("# Time Ux Uz ax az Fx Fz light (m/s, m/s2, N; the whale's frame)\n")
+                f.write("# Time Ux Uz ax az Fx Fz light pitch (m/s, m/s2, N, rad; the whale's "
+                        "frame)\n")
+            pitch = self.pitch.theta if self.pitch is not None else 0.0
             row = (self.t, self.velocity[0], self.velocity[2], self.acceleration[0],
-                   self.acceleration[2], force[0], force[2], light)
+                   self.acceleration[2], force[0], force[2], light, pitch)
             f.write(" ".join(f"{v:.12g}" for v in row) + "\n")
 
     def state(self) -> dict:
         return {"t": self.t, "true_from": self.true_from, "velocity": self.velocity.tolist(),
                 "acceleration": self.acceleration.tolist(),
-                "means": [[t, list(g)] for t, g in self._means]}
+                "means": [[t, list(g)] for t, g in self._means],
+                **(self.pitch.state() if self.pitch is not None else {})}
 
     def restore(self, state: dict) -> None:
         self.t = state["t"]
@@ -173,6 +207,8 @@ class SurgeFrame:
         self.acceleration = np.array(state["acceleration"], float)
         self._means.clear()
         self._means.extend((t, np.array(g, float)) for t, g in state["means"])
+        if self.pitch is not None:
+            self.pitch.restore(state)
 
     # --- the law -------------------------------------------------------------------------
 
@@ -197,11 +233,60 @@ class SurgeFrame:
             accel[axes] = -(rest - mean) / total - mean / (self.schedule.light * total)
         else:
             accel[axes] = -rest / total
+        if HEAVE in self.axes:      # the recoil: the swing about the mean, the trim holds depth
+            k = axes.index(HEAVE)
+            w0 = TRIM * 2.0 * math.pi / self.schedule.period_s
+            accel[HEAVE] = -(rest[k] - mean[k]) / total[k] - w0 * self.velocity[HEAVE]
         return accel
 
     @property
     def light_now(self) -> bool:
         return self.true_from is None and self.schedule.light < 1.0
+
+
+#: the trim that holds the recoiling whale's mean attitude and depth (its flippers, not
+#: modelled): a critically damped return at this fraction of the stroke's angular frequency,
+#: slow beside the stroke (the recoil's swing at the stroke frequency changes by 1.6 %)
+TRIM = 1.0 / 8.0
+
+
+class PitchRecoil:
+    """The whale's pitch about its centre of mass under the swing of its pitching moment:
+    ``(I + I_a) d2(theta)/dt2 = (G - mean G)`` with ``G = M + I_a alpha_prev`` (the added
+    inertia moved to the left as the surge's added mass is) and the trim's critically damped
+    return (:data:`TRIM`). ``inertia`` and ``added`` in kg m2, ``centre`` (3,) in m."""
+
+    def __init__(self, inertia: float, added: float, centre, period: float):
+        self.total = float(inertia) + float(added)
+        self.added = float(added)
+        self.centre = np.asarray(centre, float)
+        self.period = float(period)
+        self.theta = self.omega = self.alpha = 0.0
+        self._means: deque = deque()
+
+    def advance(self, moment_y: float, t_force: float, dt: float) -> None:
+        """One step from the pitching moment about the centre measured over the step ending at
+        ``t_force`` (which ran with the current angular acceleration)."""
+        rest = moment_y + self.added * self.alpha
+        self._means.append((t_force, rest))
+        while self._means and self._means[0][0] <= t_force - self.period:
+            self._means.popleft()
+        mean = float(np.mean([g for _, g in self._means]))
+        w0 = TRIM * 2.0 * math.pi / self.period
+        self.alpha = (rest - mean) / self.total - 2.0 * w0 * self.omega - w0 * w0 * self.theta
+        self.omega += self.alpha * dt
+        self.theta += self.omega * dt
+
+    def state(self) -> dict:
+        return {"pitch": self.theta, "pitch_rate": self.omega, "pitch_acceleration": self.alpha,
+                "pitch_centre": self.centre.tolist(),
+                "pitch_means": [[t, g] for t, g in self._means]}
+
+    def restore(self, state: dict) -> None:
+        self.theta, self.omega = float(state["pitch"]), float(state["pitch_rate"])
+        self.alpha = float(state["pitch_acceleration"])
+        self._means.clear()
+        self._means.extend((float(t), float(g)) for t, g in state["pitch_means"])
 
 
 # --- from a case's record ----------------------------------------------------------------------
@@ -231,4 +316,21 @@ def frame_of(record: dict, log_path: Path | None = None) -> SurgeFrame | None:
     return SurgeFrame(float(record["speed_m_s"]), inertia_of(record), schedule,
                       heave=bool(free["heave"]),
                       force_scale=2.0 if record.get(SYMMETRY_PLANE) else 1.0,
-                      log_path=log_path)
+                      log_path=log_path,
+                      pitch=pitch_of(record) if free.get("pitch") else None)
+
+
+def pitch_of(record: dict) -> PitchRecoil:
+    """The pitch recoil of a case record's whale: its moment of inertia about y through its
+    centroid at the water's density, and the prolate spheroid's added inertia (Lamb's k' on
+    the whale's own volume, ``rho V (a^2 + b^2) / 5`` with a = L / 2, b = D / 2)."""
+    body = record["body"]
+    if "pitch_inertia_m5" not in body:
+        raise CaseError("free.pitch needs the body's pitch inertia in the case record "
+                        "(adapter-case.json); prepare the case again with this version")
+    rho, volume = float(record["rho_kg_m3"]), float(body["volume_m3"])
+    length, diameter = float(body["length_m"]), float(body["diameter_m"])
+    added = spheroid_added_inertia(length, diameter) * rho * volume * (
+        (length / 2) ** 2 + (diameter / 2) ** 2) / 5.0
+    return PitchRecoil(rho * float(body["pitch_inertia_m5"]), added, body["centroid_m"],
+                       float(record["period_s"]))

@@ -241,6 +241,7 @@ class Timeline:
             served = Served(t, disp, vel, copy_state(a.checkpoint()), float(a.time))
         if self.frames is not None:
             served.frame, served.frame_state = self.frames.answer(t, request, restart)
+            served.disp = served.frame.rotated(served.disp, a.surface.points)
         compute_s = time.perf_counter() - t0
         if hit:
             self.stats.ahead_hits += 1

@@ -33,7 +33,7 @@ from adapter.foamfiles import time_dirs
 
 FREE = "free"
 GLIDING_FREE = "gliding-free"
-FRAME_COLUMNS = ("Time", "Ux", "Uz", "ax", "az", "Fx", "Fz", "light")
+FRAME_COLUMNS = ("Time", "Ux", "Uz", "ax", "az", "Fx", "Fz", "light", "pitch")
 
 
 def read_frame_log(case_dir) -> dict:

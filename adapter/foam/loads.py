@@ -219,7 +219,23 @@ def body_dimensions(surface, tail_base_s: float) -> dict:
     np.minimum.at(zmin, bins, p[body, 2])
     height = zmax - zmin
     return {"wetted_area_m2": area, "volume_m3": surface.volume(),
-            "diameter_m": float(height[np.isfinite(height)].max()), "length_m": surface.length}
+            "diameter_m": float(height[np.isfinite(height)].max()), "length_m": surface.length,
+            **pitch_inertia(p, tri)}
+
+
+def pitch_inertia(points: np.ndarray, triangles: np.ndarray) -> dict:
+    """The enclosed solid's centroid (m) and its ``∫ (x - xc)^2 + (z - zc)^2 dV`` (m5), the
+    moment of inertia about the y axis through the centroid per unit density: sums over the
+    tetrahedra from the origin to each (outward) triangle, ``∫ x dV = V (xa + xb + xc) / 4`` and
+    ``∫ x^2 dV = V (xa^2 + xb^2 + xc^2 + xa xb + xa xc + xb xc) / 10``."""
+    a, b, c = (points[triangles[:, k]] for k in range(3))
+    vol = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
+    total = float(vol.sum())
+    first = (vol[:, None] * (a + b + c)).sum(axis=0) / 4.0
+    second = (vol[:, None] * (a * a + b * b + c * c + a * b + a * c + b * c)).sum(axis=0) / 10.0
+    centroid = first / total
+    about = second - total * centroid ** 2
+    return {"centroid_m": centroid.tolist(), "pitch_inertia_m5": float(about[0] + about[2])}
 
 
 def cost_figures(glide_drag: float, swim_fx: float, power: float, speed: float,
