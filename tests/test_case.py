@@ -112,6 +112,15 @@ def test_prepare_case_mesh_motion_laplacian(tmp_path, smoke, smoke_surface):
     assert R.solver_command(tmp_path / "c")[1:3] == ["-debug-switch", "polyMesh=1"]
 
 
+def test_the_layer_stages_non_orthogonality_limit_is_the_scenes(tmp_path, smoke, smoke_surface):
+    C.prepare_case(smoke.replace(case={"layer_non_orthogonality": 61.5}), tmp_path / "c",
+                   surface=smoke_surface)
+    text = (tmp_path / "c" / "system" / "meshQualityDict").read_text()
+    relaxed = text[text.index("relaxed"):]
+    assert "maxNonOrtho     61.5;" in relaxed.split("}")[0]
+    assert '#includeEtc "caseDicts/mesh/generation/meshQualityDict.cfg"' in text
+
+
 def test_the_blended_motion_runs_without_openfoams_second_check(tmp_path, smoke, smoke_surface):
     C.prepare_case(smoke, tmp_path / "c", surface=smoke_surface)
     assert R.motion_checks_itself(tmp_path / "c")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import shutil
 from pathlib import Path
 
@@ -67,6 +68,10 @@ def _write_meshing(case: Path, c, p: CaseParameters) -> None:
         d[f"{axis}max"] = hi
         d[f"n{axis}"] = n
     d.writeFile()
+
+    mq = case / "system" / "meshQualityDict"     # text: PyFoam would drop its #includeEtc
+    mq.write_text(re.sub(r"(relaxed\s*\{[^}]*?maxNonOrtho\s+)[0-9.]+;",
+                         rf"\g<1>{c.layer_non_orthogonality:g};", mq.read_text(), flags=re.S))
 
     d = parsed_dict(case / "system" / "snappyHexMeshDict")
     d["geometry"]["nearWhale"]["min"] = _vector(p.near_box_min)

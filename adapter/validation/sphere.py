@@ -142,6 +142,7 @@ half_width = {radii * RADIUS_M / length}
 background_cell = {cell}
 refinement = {refine}
 layers = {layers}
+layer_non_orthogonality = 75.0   # as validated (docs/validation.md); the whale's default is lower
 turbulence = "laminar"
 dt_s = {PERIOD_S / 100}
 end_time_s = {end}
