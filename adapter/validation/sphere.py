@@ -143,6 +143,7 @@ background_cell = {cell}
 refinement = {refine}
 layers = {layers}
 layer_non_orthogonality = 75.0   # as validated (docs/validation.md); the whale's default is lower
+symmetry = "off"                 # the whole domain: the added mass's confinement is its radius
 turbulence = "laminar"
 dt_s = {PERIOD_S / 100}
 end_time_s = {end}
