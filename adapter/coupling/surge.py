@@ -122,12 +122,16 @@ class SurgeFrame:
     speed : the forward speed at the start (m/s): the frame's velocity is (speed, 0, 0).
     inertia : :class:`Inertia`.
     schedule : :class:`Schedule`.
-    heave : the whale also moves up and down (z) under its vertical force.
+    heave : the whale also moves up and down (z): the frame's vertical velocity under the swing
+        of the vertical force about its running mean (the recoil; a slow trim, :data:`TRIM`,
+        holds the mean depth).
     force_scale : the patch's share of the whole whale's force along x and z (2 on a half
         domain, whose patch is half the whale).
     log_path : a file that gets a row per new served time: time, the frame's velocity and
         acceleration along x and z, the whole whale's force along x and z (N), and 1 while the
-        lighter mass acts (0 after); rows after a restored time are dropped at a restore.
+        lighter mass acts (0 after), the pitch (rad); rows after a restored time are dropped
+        at a restore.
+    pitch : the pitch recoil (:class:`PitchRecoil`), None: none.
     """
 
     def __init__(self, speed: float, inertia: Inertia, schedule: Schedule, heave: bool = False,
