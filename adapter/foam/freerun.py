@@ -179,31 +179,30 @@ def free_figures(free: Path, glide_sp: Path, tethered_drag: float) -> dict:
         return float(st.mean_fx[-1]) if len(st.starts) else float("nan")
 
     power, drag_sp = swim_mean("total:P"), glide_mean("total:Fx")
-    mass = inertia_of(record).mass_kg
+    inertia = inertia_of(record)
     # a region the mesh has no faces of (a coarse mesh's flukes) has no figures
-    flukes = "whale.flukes:P" in data and swim_mean("whale.flukes:P") > 0
-    body = ("whale.body:Fx" in data and "whale.body:Fx" in gd
-            and glide_mean("whale.body:Fx") > 0)
+    fluke_power = swim_mean("whale.flukes:P") if "whale.flukes:P" in data else 0.0
+    fluke_eff = (-swim_mean("whale.flukes:Fx") * u_sp / fluke_power) if fluke_power > 0 else None
+    body_glide = glide_mean("whale.body:Fx") if "whale.body:Fx" in gd else 0.0
+    body_swim = swim_mean("whale.body:Fx") if body_glide > 0 and "whale.body:Fx" in data else None
     return {
         "speed_m_s": u_sp,
         "speed_change_last_two_cycles": float(abs(speed[-1] - speed[-2]) / u_sp)
         if len(speed) > 1 else float("nan"),
         "mean_fx_N": float(fx[-1]), "mean_fx_of_gliding_drag": float(fx[-1]) / tethered_drag,
         "mean_power_W": power,
-        "cost_of_transport_J_kg_m": power / (mass * u_sp),
+        "cost_of_transport_J_kg_m": power / (inertia.mass_kg * u_sp),
         "gliding_drag_at_speed_N": drag_sp,
         "quasi_propulsive_efficiency": drag_sp * u_sp / power,
-        "flukes_propulsive_efficiency": (-swim_mean("whale.flukes:Fx") * u_sp
-                                         / swim_mean("whale.flukes:P")) if flukes else None,
+        "flukes_propulsive_efficiency": fluke_eff,
         "strouhal": float(record["fluke_amplitude_m"]) / (period * u_sp),
-        "body_drag_swimming_N": swim_mean("whale.body:Fx") if body else None,
-        "body_drag_gliding_N": glide_mean("whale.body:Fx") if body else None,
-        "drag_augmentation": swim_mean("whale.body:Fx") / glide_mean("whale.body:Fx")
-        if body else None,
+        "body_drag_swimming_N": body_swim,
+        "body_drag_gliding_N": body_glide if body_swim is not None else None,
+        "drag_augmentation": body_swim / body_glide if body_swim is not None else None,
         "cycles_true_mass": int(len(starts)),
         "window_s": list(window),
-        "mass_kg": mass,
-        "added_surge_kg": inertia_of(record).added_surge_kg,
+        "mass_kg": inertia.mass_kg,
+        "added_surge_kg": inertia.added_surge_kg,
         "release_s": float(record["free_release_s"]),
     }
 
@@ -215,9 +214,10 @@ def written_inlet_speed(case: Path) -> tuple[float, float]:
     return t, float(np.asarray(value.val if hasattr(value, "val") else value).ravel()[0])
 
 
-def glide_steady(period: float, tolerance: float, start_up: float):
-    """A gliding run's stop rule: the mean drag over a period changes by less than
-    ``tolerance`` from one period to the next, periods counted from ``start_up``."""
+def steady_gliding(period: float, tolerance: float, start_up: float):
+    """A gliding run's stop rule (the pair's and the one at U_sp): the mean drag over a period
+    changes by less than ``tolerance`` from one period to the next, periods counted from
+    ``start_up``."""
     def rule(case: Path) -> str | None:
         data = ld.read_loads(case)
         if not data:
@@ -244,7 +244,7 @@ def run_free(case: Path, glide: Path, drag: float, runner) -> dict:
     glide_sp = prepare_gliding_at(glide, float(speed[-1]))
     record = Case(glide_sp).record
     period = float(record["period_s"])
-    g_summary = runner(glide_sp, glide_steady(period, float(record["periodic_tolerance"]),
+    g_summary = runner(glide_sp, steady_gliding(period, float(record["periodic_tolerance"]),
                                               float(record["gliding_from_s"]) + 0.5 * period))
     figures = free_figures(free, glide_sp, drag)
     figures["settled"] = settled(free, drag) is not None

@@ -33,7 +33,7 @@ from adapter.foam.case import Case
 from adapter.foam.dictionaries import hold_still, parsed_dict
 from adapter.foam.eta import PairEta, StopRule
 from adapter.foam.folders import asked_start, resume_time
-from adapter.foam.freerun import FREE_ROWS, run_free
+from adapter.foam.freerun import FREE_ROWS, run_free, steady_gliding
 from adapter.foam.parallel import reconstruct_new_times
 from adapter.foam.report import write_report
 from adapter.foam.run import run_case
@@ -78,14 +78,7 @@ def run_swim_and_glide(case: Path, scene_record: dict, tolerance: float, ranks=N
     ramp = float(scene_record.get("ramp_s", period))
     glide = prepare_gliding(case)
 
-    def glide_steady(c):
-        st = _stats(c, period, period)
-        if st is not None and len(st.starts) >= 2 and ld.is_periodic(
-                st, st.mean_fx[-1], tolerance):
-            change = ld.periodic_change(st, st.mean_fx[-1])[0]
-            return f"steady: mean drag changed {change:.2%} over the last stroke period"
-        return None
-
+    glide_steady = steady_gliding(period, tolerance, start_up=period)
     # the ETA: gliding to its earliest steady period, then the whole swimming run to its
     # earliest periodic cycle (adapter/foam/eta.py)
     glide_rule = StopRule(start_up=period, period=period, end_time=_end_time(glide))
