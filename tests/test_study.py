@@ -115,6 +115,15 @@ def test_three_meshes_scale_every_cell_by_the_ratio(tmp_path, smoke_scene, smoke
         S.plan_cases(scene, smoke_surface, 1.2)
 
 
+def test_the_study_runs_tethered_pairs_without_the_free_stage(smoke_scene, smoke_surface):
+    """The default scene swims free after its pair (free.enabled); the study's cases do not:
+    docs/case.md's study is pairs, its self-propelled speed the speeds part's root."""
+    scene = smoke_scene.replace(free={"enabled": True})
+    cases = S.plan_cases(scene, smoke_surface, 1.3, (0.9, 1.0, 1.1))
+    assert len(cases) == 6
+    assert not any(c["scene"].free.enabled for c in cases)
+
+
 def test_layer_rule_changes_the_layer_count_when_the_expansion_cannot_reach():
     n, e = S.layer_rule(0.008, 3, 1.5, 1 / 2.0)  # 19 mm: below 3 x 8 mm at expansion 1
     assert n == 2 and 1.0 <= e <= 3.0

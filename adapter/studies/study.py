@@ -145,6 +145,9 @@ def plan_cases(scene, surface, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEE
     if ratio < 1.3:
         raise AdapterError(f"--ratio {ratio}: the refinement ratio must be at least 1.3 "
                            "(Celik et al. 2008)")
+    # the study's cases are tethered pairs: its speeds part finds the self-propelled speed,
+    # and a free run on every case would multiply the study's cost
+    scene = scene.replace(free={"enabled": False})
     dt = study_dt(scene, surface)
     cases = []
     meshes = {k: mesh_scene(scene, k, ratio, finest).replace(case={"dt_s": dt})
