@@ -157,12 +157,14 @@ def _rerun(monkeypatch, *args):
     return main(["run-case", *args])
 
 
-def test_a_rerun_is_compared_with_the_cases_own_scene(tmp_path, smoke_surface, monkeypatch,
-                                                      capsys):
+def test_a_rerun_is_compared_with_the_cases_own_scene(tmp_path, monkeypatch, capsys):
     my = tmp_path / "my.toml"
     my.write_text('preset = "smoke"\n[stroke]\nfluke_joint = 0.03\n')
     case = tmp_path / "case"
-    C.prepare_case(load_scene(my), case, scene_file=my, surface=smoke_surface)
+    # prepared by run-case (to meshing), with a run setting that goes into its scene
+    with pytest.raises(_Meshing):
+        _rerun(monkeypatch, "--scene", str(my), "--launcher", "srun -n {np}", "--case", str(case))
+    assert load_case_scene(case).case.launcher == "srun -n {np}"
     # the same scene, named by its file or by a copy of it: continued (to meshing)
     with pytest.raises(_Meshing):
         _rerun(monkeypatch, "--scene", str(my), "--case", str(case))

@@ -66,7 +66,8 @@ def _flat(scene) -> dict:
     for f in dataclasses.fields(scene):
         value = getattr(scene, f.name)
         if dataclasses.is_dataclass(value):
-            out.update({f"{f.name}.{k}": v for k, v in dataclasses.asdict(value).items()})
+            out.update({f"{f.name}.{g.name}": getattr(value, g.name)
+                        for g in dataclasses.fields(value)})
         else:
             out[f.name] = value
     return out

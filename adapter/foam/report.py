@@ -67,8 +67,8 @@ def write_report(case, summary: dict | None = None, rows=None) -> Path:
         summary = json.loads(held.summary_file.read_text())
     record = held.record if held.has_record else {}
     sections = [_headline(summary, rows or SUMMARY_ROWS), _plausibility(summary),
-                _forces(case), _pictures(case),
-                _yplus(summary), _mesh(summary, record), _scene(case, record), versions_section(case)]
+                _forces(case), _pictures(case), _yplus(summary), _mesh(summary, record),
+                _scene(case, record), versions_section(case)]
     subtitle = (f"{case.resolve()} · written "
                 f"{datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')} by "
                 f"whale-adapter run-case · every figure: {SUMMARY}")
