@@ -195,3 +195,12 @@ def test_a_rerun_of_an_older_case_is_compared_with_its_record(tmp_path, smoke, s
         _rerun(monkeypatch, "--preset", "smoke", "--case", str(case))
     assert _rerun(monkeypatch, "--preset", "default", "--case", str(case)) == 2
     assert "--preset default (recorded: preset smoke)" in capsys.readouterr().err
+
+
+def test_the_report_shows_the_scene_the_server_animates(tmp_path, smoke, smoke_surface):
+    from adapter.foam.report import write_report
+
+    case = tmp_path / "case"
+    C.prepare_case(smoke.replace(stroke={"fluke_joint": 0.06}), case, surface=smoke_surface)
+    page = write_report(case, {}).read_text()
+    assert "fluke_joint = 0.06\n" in page and str(case / CASE_SCENE) in page
