@@ -24,6 +24,7 @@ ROOMS = {
     "adapter.errors": "base",
     "adapter.scene": "base",
     "adapter.scenevalues": "base",     # the scene's value checks (a leaf: adapter.errors)
+    "adapter.scenefile": "base",       # the scene written out as TOML (a leaf)
     "adapter.resources": "base",
     "adapter.vtkfiles": "base",         # a leaf: imports only adapter.errors
     "adapter.foamfiles": "base",        # a leaf: the time-folder scan

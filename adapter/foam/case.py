@@ -25,6 +25,7 @@ from adapter import jsonfiles, resources
 from adapter.coupling.protocol import SOCKET_NAME
 from adapter.errors import CaseError, SceneError
 from adapter.foam import symmetry
+from adapter.foam.casescene import write_case_scene
 from adapter.foam.dictionaries import PLUGIN_LIB, choose_decomposition, write_dictionaries
 from adapter.foam.loads import body_dimensions
 from adapter.foam.parallel import resolve_ranks
@@ -60,11 +61,13 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     static_whale : the whale patch gets ``fixedValue uniform (0 0 0)`` instead of the
         step-server boundary condition, and the plugin library is not loaded (a flow-only case,
         no server needed).
-    scene_file : the scene's TOML file, recorded so that the step-server loads the same scene.
+    scene_file : the scene's TOML file the scene was loaded from, recorded (provenance).
     surface : a :class:`~adapter.body.surface.WhaleSurface`; None builds the scene's.
 
     Returns the :class:`CaseParameters` written; they are also recorded in
-    ``<case>/adapter-case.json``.
+    ``<case>/adapter-case.json``. The scene itself, every value, goes into
+    ``<case>/adapter-scene.toml`` (:mod:`adapter.foam.casescene`): the one the case's
+    step-server loads.
     """
     case = Path(case_dir)
     if (case / "system" / "controlDict").exists():
@@ -80,11 +83,14 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
 
         surface = build_surface(scene)
     check_length(scene, surface)
+    given = scene
     if not surface.is_whale:
         # a body without the whale's landmarks has no flippers or flukes to refine at
         scene = scene.replace(case={"flipper_level": 0, "fluke_level": 0})
     case.mkdir(parents=True, exist_ok=True)
     shutil.copytree(TEMPLATE_DIR, case, dirs_exist_ok=True)
+    write_case_scene(given, case, f"scene file {Path(scene_file).resolve()}" if scene_file
+                     else f"preset {scene.name}")
     stl = _write_surfaces(case, surface)
     pts = np.asarray(surface.points)
     ranks = resolve_ranks(ranks if ranks is not None else scene.case.ranks)

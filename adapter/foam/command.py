@@ -11,6 +11,7 @@ from pathlib import Path
 from adapter.coupling.server import resolve_token
 from adapter.errors import CaseError, UsageError
 from adapter.foam.case import CASE_RECORD, Case, parallel_settings, prepare_case
+from adapter.foam.casescene import case_scene_file, scene_differences
 from adapter.foam.dictionaries import DECOMPOSITIONS, choose_decomposition, parsed_dict
 from adapter.foam.folders import asked_start, resume_time
 from adapter.foam.mesh import mesh_case
@@ -178,6 +179,29 @@ def _warn_unless_periodic(case: Path, summary: dict) -> int:
     return NOT_PERIODIC
 
 
+def _differs_from_own(own: Path, record: dict, args: argparse.Namespace) -> list:
+    diff = scene_differences(load_scene(args.scene, preset=args.preset), load_scene(own))
+    if not diff:
+        return []
+    asked = " ".join(filter(None, [args.scene and f"--scene {Path(args.scene).resolve()}",
+                                   args.preset and f"--preset {args.preset}"]))
+    more = f" and {len(diff) - 3} more" if len(diff) > 3 else ""
+    return [f"{asked} (recorded: {_recorded(record)}; its values differ from the case's own "
+            f"scene {own} in {', '.join(diff[:3])}{more})"]
+
+
+def _differs_from_record(record: dict, args: argparse.Namespace) -> list:
+    differs = []
+    if args.scene:
+        asked = str(Path(args.scene).resolve())
+        if asked != record.get("scene_file"):
+            differs.append(f"--scene {asked} (recorded: {_recorded(record)})")
+    if args.preset and (args.preset != record.get("preset")
+                        or (not args.scene and record.get("scene_file"))):
+        differs.append(f"--preset {args.preset} (recorded: {_recorded(record)})")
+    return differs
+
+
 def _record_decomposition(case: Path, record: dict, value: str) -> None:
     """--decomposition on a prepared case: recorded (a file copied in) for this and later runs."""
     record["parallel"] = parallel_settings(record, decomposition=choose_decomposition(
@@ -192,15 +216,14 @@ def _recorded(record: dict) -> str:
 
 
 def _check_same_case(case: Path, record: dict, args: argparse.Namespace) -> None:
-    """A rerun may name the case's scene/preset again (make run-case does); refuse another."""
-    differs = []
-    if args.scene:
-        asked = str(Path(args.scene).resolve())
-        if asked != record.get("scene_file"):
-            differs.append(f"--scene {asked} (recorded: {_recorded(record)})")
-    if args.preset and (args.preset != record.get("preset")
-                        or (not args.scene and record.get("scene_file"))):
-        differs.append(f"--preset {args.preset} (recorded: {_recorded(record)})")
+    """A rerun may name the case's scene/preset again (make run-case does); refuse another:
+    one whose values differ from the case's own scene (adapter-scene.toml), or for a case
+    prepared before it had one, another scene file or preset than recorded."""
+    own = case_scene_file(case)
+    if own is not None:
+        differs = _differs_from_own(own, record, args) if args.scene or args.preset else []
+    else:
+        differs = _differs_from_record(record, args)
     if args.static_whale and not record.get("static_whale"):
         differs.append("--static-whale (recorded: a coupled, moving whale)")
     if differs:

@@ -27,6 +27,7 @@ from adapter.coupling.surge import FRAME_LOG, inertia_of
 from adapter.errors import CaseError
 from adapter.foam import loads as ld
 from adapter.foam.case import Case
+from adapter.foam.casescene import CASE_SCENE
 from adapter.foam.dictionaries import parsed_dict, use_frame_inflow
 from adapter.foam.parallel import reconstruct_new_times
 from adapter.foamfiles import time_dirs
@@ -93,7 +94,8 @@ def prepare_free(case: Path, drag: float) -> Path:
         return free
     record = Case(case).record
     state = [f"adapter/{p.name}" for p in (case / "adapter").glob("state_*.npz")]
-    t0 = _copy_case_at(case, free, extra=state)
+    # the case's own scene: the free whale's server animates the tethered one's
+    t0 = _copy_case_at(case, free, extra=[*state, CASE_SCENE])
     record["free_release_s"] = t0
     record["free_reference_drag_N"] = float(drag)
     Case(free).save(record)

@@ -19,6 +19,7 @@ from pathlib import Path
 
 from adapter.errors import SceneError
 from adapter.foam.case import Case
+from adapter.foam.casescene import case_scene_file
 from adapter.foam.estimates import plausibility_table
 from adapter.foam.summary import SUMMARY, SUMMARY_ROWS, summary_rows
 from adapter.reports.html_page import Section, write_page
@@ -66,8 +67,8 @@ def write_report(case, summary: dict | None = None, rows=None) -> Path:
         summary = json.loads(held.summary_file.read_text())
     record = held.record if held.has_record else {}
     sections = [_headline(summary, rows or SUMMARY_ROWS), _plausibility(summary),
-                _forces(case), _pictures(case),
-                _yplus(summary), _mesh(summary, record), _scene(record), versions_section(case)]
+                _forces(case), _pictures(case), _yplus(summary), _mesh(summary, record),
+                _scene(case, record), versions_section(case)]
     subtitle = (f"{case.resolve()} · written "
                 f"{datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')} by "
                 f"whale-adapter run-case · every figure: {SUMMARY}")
@@ -158,12 +159,13 @@ def _mesh(summary: dict, record: dict) -> Section:
     return Section("Mesh quality", rows=tuple(rows))
 
 
-def _scene(record: dict) -> Section | None:
+def _scene(case: Path, record: dict) -> Section | None:
     if not record:
         return None
     scene_file = record.get("scene_file")
+    own = case_scene_file(case)
     source = scene_file or f"preset {record.get('preset', 'default')}"
-    rows = [("scene", source)]
+    rows = [("scene", source)] + ([("the case's own scene", str(own))] if own else [])
     for label, key, fmt in (("stroke period", "period_s", "{:.4g} s"),
                             ("flow speed", "speed_m_s", "{:.3g} m/s"),
                             ("body length", "length_m", "{:.3g} m"),
@@ -174,7 +176,9 @@ def _scene(record: dict) -> Section | None:
         if value is not None:
             rows.append((label, ("yes" if value else "no") if fmt is None else fmt.format(value)))
     try:
-        if scene_file and Path(scene_file).is_file():
+        if own is not None:
+            scene = load_scene(own)
+        elif scene_file and Path(scene_file).is_file():
             scene = load_scene(scene_file)
         else:
             scene = load_scene(preset=record.get("preset", "default"))
@@ -182,8 +186,9 @@ def _scene(record: dict) -> Section | None:
     except (SceneError, OSError) as exc:
         values = f"the scene could not be loaded again: {exc}"
     return Section("Scene", rows=tuple(rows), pre=values,
-                   text=("The case's set-up; below it, every value of the scene as loaded (the "
-                         "defaults, the preset, the file)."))
+                   text=("The case's set-up; below it, every value of the scene the case's "
+                         "step-server loads (its own adapter-scene.toml; a case without one: "
+                         "the defaults, the preset, the file)."))
 
 
 def _scene_text(scene) -> str:

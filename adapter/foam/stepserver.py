@@ -15,11 +15,17 @@ from pathlib import Path
 from adapter import resources
 from adapter.coupling.protocol import ENDPOINT_NAME, TOKEN_ENV
 from adapter.errors import ServerStartError
+from adapter.foam.casescene import case_scene_file
 
 
 def server_command(case: Path, record: dict) -> list:
-    """``whale-adapter serve`` for the case, with the scene file or preset it was prepared from."""
+    """``whale-adapter serve`` for the case, with the case's own scene
+    (``<case>/adapter-scene.toml``, :mod:`adapter.foam.casescene`); a case prepared before it
+    had one: with the scene file or preset recorded."""
     cmd = [sys.executable, "-m", "adapter.cli", "serve", "--case", str(case)]
+    own = case_scene_file(case)
+    if own is not None:
+        return cmd + ["--scene", str(own.resolve())]
     if record.get("scene_file"):
         cmd += ["--scene", record["scene_file"]]
     if record.get("preset"):
