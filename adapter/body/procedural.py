@@ -125,8 +125,8 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
     flipper, fl_loop, fl_inner = _flipper(rings, s, n_phi, (fa, fb, fm), length, naca)
     fluke, ku_loop = _fluke(rings, n_x, n_phi, (ka, kb, km), length, fluke_span, naca)
     body = _Body(rings, n_x, n_phi, length)
-    root = _foil_root(s, n_phi, flipper, fl_loop, length) if flipper_root == "foil" else None
-    body.attach("flipper", flipper, fl_loop, fl_inner, root)
+    moved = _foil_root(s, n_phi, flipper, fl_loop, length) if flipper_root == "foil" else {}
+    body.attach("flipper", flipper, fl_loop, fl_inner, moved)
     body.attach("fluke", fluke, ku_loop, patch_loop(fluke, n_phi)[1])
     points, faces, face_regions = body.surface()
 
@@ -197,31 +197,42 @@ def _flipper(rings, s, n_phi: int, counts, length: float, naca: bool):
 
 
 def _foil_root(s: np.ndarray, n_phi: int, fin: Fin, loop_rc, length: float,
-               lead: float = ROOT_LEAD, trail: float = ROOT_TRAIL) -> np.ndarray:
-    """The positions (len(loop_rc), 3) of a fin's root loop moved on the body's surface into
-    the footprint of a foil: the symmetric NACA section of the fin's root thickness ratio,
-    its chord along the patch's middle line (the phi of the short sides' middle nodes). The
-    nose (the leading side's middle node) moves forward by ``lead`` of the ring spacing ahead
-    of the patch, the trailing point back by ``trail`` of the one behind; every other loop node
-    keeps its ring and moves around it to the foil's half-thickness at its ring's chord
-    fraction, measured as arc length along the ring. A patch two quads across (``fin.b``)."""
-    i0, i1, jc = fin.ring0, fin.ring0 + fin.a, fin.phi0 + fin.b // 2
+               lead: float = ROOT_LEAD, trail: float = ROOT_TRAIL) -> dict:
+    """A fin's root loop moved on the body's surface into the footprint of a foil: the
+    symmetric NACA section of the fin's root thickness ratio, its chord along the patch's
+    middle line (the phi of the short sides' middle nodes). The nose (the leading side's middle
+    node) moves forward by ``lead`` of the ring spacing ahead of the patch, the trailing point
+    back by ``trail`` of the one behind; every other loop node keeps its ring and moves around
+    it to the foil's half-thickness at its ring's chord fraction, measured as arc length along
+    the ring. Where the foil is wider than the patch the rows beside its long sides make room,
+    each farther row by less, so that no quad there narrows below 0.6 of its width. Returns
+    ``{(ring, phi index): position}`` of every node that moves (the left side). A patch two
+    quads across (``fin.b``), whose short sides' middle nodes make the nose and the tail."""
+    i0, i1, j0, j1 = fin.ring0, fin.ring0 + fin.a, fin.phi0, fin.phi0 + fin.b
+    jc = fin.phi0 + fin.b // 2
     s_nose = s[i0] - lead * (s[i0] - s[i0 - 1])
     s_tail = s[i1] + trail * (s[i1 + 1] - s[i1])
-    chord = (s_tail - s_nose) * length
+    chord, dphi = (s_tail - s_nose) * length, 2 * np.pi / n_phi
     tc = fin.thickness_ratio(0.0)
-    phi_c = 2 * np.pi * jc / n_phi
-    out = []
-    for i, j in loop_rc:
-        if j == jc:
-            st, phi = (s_nose if i == i0 else s_tail), phi_c
-        else:
-            st = s[i]
-            half = float(foil_half_thickness(np.array((st - s_nose) / (s_tail - s_nose)), tc))
-            phi = _phi_at_arc(st, phi_c, np.sign(j - jc) * half * chord, length)
+
+    def at(st, phi):
         y, z = _left_half(np.array([st]), np.array([phi]), length)
-        out.append((st * length, y[0, 0], z[0, 0]))
-    return np.array(out)
+        return np.array([st * length, y[0, 0], z[0, 0]])
+
+    moved = {(i0, jc): at(s_nose, jc * dphi), (i1, jc): at(s_tail, jc * dphi)}
+    shift = {}   # (ring, phi index) of a long side's node -> its turn about the body (rad)
+    for i in range(i0, i1 + 1):
+        half = float(foil_half_thickness(np.array((s[i] - s_nose) / (s_tail - s_nose)), tc))
+        for j in (j0, j1):
+            shift[(i, j)] = _phi_at_arc(s[i], jc * dphi, np.sign(j - jc) * half * chord,
+                                        length) - j * dphi
+    widest = max(max(-d if j == j0 else d for (_, j), d in shift.items()), 0.0)
+    rows = max(int(np.ceil(widest / (0.4 * dphi))) - 1, 0)  # rows beside a side that make room
+    for (i, j), d in shift.items():
+        out = 1 if j == j1 else -1
+        for k in range(rows + 1):
+            moved[(i, j + out * k)] = at(s[i], (j + out * k) * dphi + d * (1 - k / (rows + 1)))
+    return moved
 
 
 def _phi_at_arc(st: float, phi_c: float, arc: float, length: float) -> float:
@@ -281,11 +292,15 @@ class _Body:
     def node(self, i, j):
         return i * self.n_phi + (j % self.n_phi)
 
-    def attach(self, name: str, fin: Fin, loop_rc, inner_rc, root=None) -> None:
-        """Grow ``fin`` out of its patch on the left side and its mirror on the right; ``root``:
-        the left root loop's new positions on the body (None: the patch's own nodes)."""
-        if root is None:
-            root = self.rings[tuple(np.array(loop_rc).T)].copy()
+    def attach(self, name: str, fin: Fin, loop_rc, inner_rc, moved=None) -> None:
+        """Grow ``fin`` out of its patch on the left side and its mirror on the right;
+        ``moved``: ``{(ring, phi index): position}``, body nodes of the left side moved first
+        (:func:`_foil_root`; the right side's mirrored), its root loop among them."""
+        moved = moved or {}
+        for (i, j), xyz in moved.items():
+            self.pts[0][self.node(i, j)] = xyz
+            self.pts[0][self.node(i, -j)] = xyz * np.array([1.0, -1.0, 1.0])
+        root = self.pts[0][[self.node(i, j) for i, j in loop_rc]].copy()
         for sign in (1, -1):
             self._attach_side(name, fin, loop_rc, inner_rc, sign, root)
 
@@ -308,7 +323,6 @@ class _Body:
         for a, b in patch:
             self.removed.add(tuple(sorted(patch_quad(a, b))))
         layers, tip = fin_layers(fin, root, inner_rc)
-        self.pts[0][loop_idx] = root * np.array([1.0, sign, 1.0])
         if sign == -1:
             layers = layers * np.array([1.0, -1.0, 1.0])
             tip = tip * np.array([1.0, -1.0, 1.0])
