@@ -44,6 +44,8 @@ class Geometry:
     fluke_span: float = field(default=0.32, metadata={"check": _within(0.1, 0.5)})  #: of L
     #: the fins' sections: "naca" (hydrofoils, docs/geometry.md) or the old "ellipse"
     fin_sections: str = field(default="naca", metadata={"choices": ("naca", "ellipse")})
+    #: the flippers' root on the flank: "foil" (the root section's footprint) or "rectangle"
+    flipper_root: str = field(default="foil", metadata={"choices": ("foil", "rectangle")})
     landmarks: dict = field(default_factory=dict)  #: a mesh file's LANDMARKS, its coordinates (m)
     landmark_tolerance: float = field(default=0.01, metadata={"check": _positive})
 

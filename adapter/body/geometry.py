@@ -27,7 +27,8 @@ def build_surface(scene) -> WhaleSurface:
     g = scene.geometry
     if g.source == "procedural":
         points, faces, landmarks, face_regions = procedural_whale(
-            g.length_m, g.nodes, g.fluke_span, with_regions=True, sections=g.fin_sections)
+            g.length_m, g.nodes, g.fluke_span, with_regions=True, sections=g.fin_sections,
+            flipper_root=g.flipper_root)
         length = g.length_m
         origin = np.zeros(3)
         # orientation flips rows in place: the regions stay parallel to the faces

@@ -18,10 +18,13 @@ from adapter.body.fins import (
     FLIPPER_THICKNESS,
     FLIPPER_TIP_ROUNDING,
     FLUKE_THICKNESS,
+    ROOT_LEAD,
+    ROOT_TRAIL,
     TIP_ROUND,
     Fin,
     fin_layers,
     flat,
+    foil_half_thickness,
     patch_loop,
 )
 from adapter.body.landmarks import TAIL_BASE_S
@@ -57,17 +60,13 @@ def _ring_positions(n_x: int) -> np.ndarray:
     return u - 0.6 * np.sin(2 * np.pi * u) / (2 * np.pi)
 
 
-def _section(s: np.ndarray, n_phi: int, length: float) -> np.ndarray:
-    """(len(s), n_phi, 3) ring points; phi = 0 is dorsal, phi = 90 deg the left side (+y).
-
-    The right half mirrors the left exactly (y -> -y), so the whale is symmetric to the bit.
-    """
+def _left_half(s: np.ndarray, phi: np.ndarray, length: float) -> tuple[np.ndarray, np.ndarray]:
+    """(y, z), each (len(s), len(phi)), of the body's surface at stations ``s`` and angles
+    ``phi`` in [0, pi] (0 dorsal, pi/2 the left side): the smooth surface the rings sample."""
     depth = _profile(_DEPTH)(s) * length
     width = _profile(_WIDTH)(s) * length
     top = _profile(_TOP_SHARE)(s)
     axis_z = _profile(_AXIS_Z)(s) * length
-    half = n_phi // 2
-    phi = 2 * np.pi * np.arange(half + 1) / n_phi  # 0 .. pi, left half and both midlines
     # superellipse, a little boxy at the head, elliptic elsewhere
     expo = 2.0 + 0.4 * np.clip(1 - s / 0.3, 0, 1)
     cz, sy = np.cos(phi)[None, :], np.sin(phi)[None, :]
@@ -76,6 +75,17 @@ def _section(s: np.ndarray, n_phi: int, length: float) -> np.ndarray:
     zf = np.sign(cz) * np.abs(cz) ** e
     h = np.where(zf >= 0, top[:, None], 1 - top[:, None]) * depth[:, None]
     z = axis_z[:, None] + h * zf
+    return y, z
+
+
+def _section(s: np.ndarray, n_phi: int, length: float) -> np.ndarray:
+    """(len(s), n_phi, 3) ring points; phi = 0 is dorsal, phi = 90 deg the left side (+y).
+
+    The right half mirrors the left exactly (y -> -y), so the whale is symmetric to the bit.
+    """
+    half = n_phi // 2
+    phi = 2 * np.pi * np.arange(half + 1) / n_phi  # 0 .. pi, left half and both midlines
+    y, z = _left_half(s, phi, length)
     y[:, 0] = 0.0
     y[:, half] = 0.0
     pts = np.zeros((len(s), n_phi, 3))
@@ -89,7 +99,8 @@ def _section(s: np.ndarray, n_phi: int, length: float) -> np.ndarray:
 
 
 def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float = 0.32,
-                     with_regions: bool = False, sections: str = "naca"):
+                     with_regions: bool = False, sections: str = "naca",
+                     flipper_root: str = "foil"):
     """Build the procedural right whale: (points, faces, landmarks), and with ``with_regions``
     a fourth item, ``face_regions``: per face group the region index (:data:`REGIONS`) each
     face was built as: the flipper fins' extrusion layers and tip caps FLIPPERS, the fluke
@@ -97,19 +108,25 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
 
     ``nodes`` is met to within a ring of the body (about 0.6 % at the default 11,272).
     ``sections``: the fins' sections, ``"naca"`` (hydrofoils) or ``"ellipse"`` (the first
-    rounds' elliptic sections, blunt at both edges).
+    rounds' elliptic sections, blunt at both edges). ``flipper_root``: the flippers' root
+    loop on the flank, ``"foil"`` (the root section's outline, :func:`_foil_root`) or
+    ``"rectangle"`` (the paper's way: the patch's rectangle, a blunt shoulder at its leading
+    side while the layers blend it into the sections).
     """
     if nodes < 400:
         raise GeometryError(f"nodes = {nodes} is too coarse for a whale; use at least 400")
     if sections not in ("naca", "ellipse"):
         raise GeometryError(f"fin sections {sections!r}: use \"naca\" or \"ellipse\"")
+    if flipper_root not in ("foil", "rectangle"):
+        raise GeometryError(f"flipper root {flipper_root!r}: use \"foil\" or \"rectangle\"")
     naca = sections == "naca"
     n_phi, s, n_x, (fa, fb, fm), (ka, kb, km) = _resolution(nodes)
     rings = _section(s, n_phi, length)
     flipper, fl_loop, fl_inner = _flipper(rings, s, n_phi, (fa, fb, fm), length, naca)
     fluke, ku_loop = _fluke(rings, n_x, n_phi, (ka, kb, km), length, fluke_span, naca)
     body = _Body(rings, n_x, n_phi, length)
-    body.attach("flipper", flipper, fl_loop, fl_inner)
+    moved = _foil_root(s, n_phi, flipper, fl_loop, length) if flipper_root == "foil" else {}
+    body.attach("flipper", flipper, fl_loop, fl_inner, moved)
     body.attach("fluke", fluke, ku_loop, patch_loop(fluke, n_phi)[1])
     points, faces, face_regions = body.surface()
 
@@ -179,6 +196,56 @@ def _flipper(rings, s, n_phi: int, counts, length: float, naca: bool):
     return flipper, fl_loop, fl_inner
 
 
+def _foil_root(s: np.ndarray, n_phi: int, fin: Fin, loop_rc, length: float,
+               lead: float = ROOT_LEAD, trail: float = ROOT_TRAIL) -> dict:
+    """A fin's root loop moved on the body's surface into the footprint of a foil: the
+    symmetric NACA section of the fin's root thickness ratio, its chord along the patch's
+    middle line (the phi of the short sides' middle nodes). The nose (the leading side's middle
+    node) moves forward by ``lead`` of the ring spacing ahead of the patch, the trailing point
+    back by ``trail`` of the one behind; every other loop node keeps its ring and moves around
+    it to the foil's half-thickness at its ring's chord fraction, measured as arc length along
+    the ring. Where the foil is wider than the patch the rows beside its long sides make room,
+    each farther row by less, so that no quad there narrows below 0.6 of its width. Returns
+    ``{(ring, phi index): position}`` of every node that moves (the left side). A patch two
+    quads across (``fin.b``), whose short sides' middle nodes make the nose and the tail."""
+    i0, i1, j0, j1 = fin.ring0, fin.ring0 + fin.a, fin.phi0, fin.phi0 + fin.b
+    jc = fin.phi0 + fin.b // 2
+    s_nose = s[i0] - lead * (s[i0] - s[i0 - 1])
+    s_tail = s[i1] + trail * (s[i1 + 1] - s[i1])
+    chord, dphi = (s_tail - s_nose) * length, 2 * np.pi / n_phi
+    tc = fin.thickness_ratio(0.0)
+
+    def at(st, phi):
+        y, z = _left_half(np.array([st]), np.array([phi]), length)
+        return np.array([st * length, y[0, 0], z[0, 0]])
+
+    moved = {(i0, jc): at(s_nose, jc * dphi), (i1, jc): at(s_tail, jc * dphi)}
+    shift = {}   # (ring, phi index) of a long side's node -> its turn about the body (rad)
+    for i in range(i0, i1 + 1):
+        half = float(foil_half_thickness(np.array((s[i] - s_nose) / (s_tail - s_nose)), tc))
+        for j in (j0, j1):
+            shift[(i, j)] = _phi_at_arc(s[i], jc * dphi, np.sign(j - jc) * half * chord,
+                                        length) - j * dphi
+    widest = max(max(-d if j == j0 else d for (_, j), d in shift.items()), 0.0)
+    rows = max(int(np.ceil(widest / (0.4 * dphi))) - 1, 0)  # rows beside a side that make room
+    for (i, j), d in shift.items():
+        out = 1 if j == j1 else -1
+        for k in range(rows + 1):
+            moved[(i, j + out * k)] = at(s[i], (j + out * k) * dphi + d * (1 - k / (rows + 1)))
+    return moved
+
+
+def _phi_at_arc(st: float, phi_c: float, arc: float, length: float) -> float:
+    """The angle phi on the ring at station ``st`` that lies ``arc`` (m, signed: toward larger
+    phi when positive) along the ring from ``phi_c``."""
+    phi = phi_c + np.linspace(-0.6, 0.6, 1201)
+    y, z = _left_half(np.array([st]), phi, length)
+    seg = np.hypot(np.diff(y[0]), np.diff(z[0]))
+    along = np.concatenate([[0.0], np.cumsum(seg)])
+    along -= np.interp(phi_c, phi, along)
+    return float(np.interp(arc, along, phi))
+
+
 def _fluke(rings, n_x: int, n_phi: int, counts, length: float, fluke_span: float, naca: bool):
     """The left fluke (:class:`Fin`) and its patch's loop: a swept wing from the side of the
     tail stock, span ``fluke_span`` L tip to tip."""
@@ -225,12 +292,20 @@ class _Body:
     def node(self, i, j):
         return i * self.n_phi + (j % self.n_phi)
 
-    def attach(self, name: str, fin: Fin, loop_rc, inner_rc) -> None:
-        """Grow ``fin`` out of its patch on the left side and its mirror on the right."""
+    def attach(self, name: str, fin: Fin, loop_rc, inner_rc, moved=None) -> None:
+        """Grow ``fin`` out of its patch on the left side and its mirror on the right;
+        ``moved``: ``{(ring, phi index): position}``, body nodes of the left side moved first
+        (:func:`_foil_root`; the right side's mirrored), its root loop among them."""
+        moved = moved or {}
+        for (i, j), xyz in moved.items():
+            self.pts[0][self.node(i, j)] = xyz
+            self.pts[0][self.node(i, -j)] = xyz * np.array([1.0, -1.0, 1.0])
+        root = self.pts[0][[self.node(i, j) for i, j in loop_rc]].copy()
         for sign in (1, -1):
-            self._attach_side(name, fin, loop_rc, inner_rc, sign)
+            self._attach_side(name, fin, loop_rc, inner_rc, sign, root)
 
-    def _attach_side(self, name: str, fin: Fin, loop_rc, inner_rc, sign: int) -> None:
+    def _attach_side(self, name: str, fin: Fin, loop_rc, inner_rc, sign: int,
+                     root: np.ndarray) -> None:
         node, n_phi = self.node, self.n_phi
 
         def mj(jv):
@@ -247,7 +322,7 @@ class _Body:
         # the patch's quads make way for the fin (kept as sorted tuples: winding-free)
         for a, b in patch:
             self.removed.add(tuple(sorted(patch_quad(a, b))))
-        layers, tip = fin_layers(fin, self.rings[tuple(np.array(loop_rc).T)], inner_rc)
+        layers, tip = fin_layers(fin, root, inner_rc)
         if sign == -1:
             layers = layers * np.array([1.0, -1.0, 1.0])
             tip = tip * np.array([1.0, -1.0, 1.0])
