@@ -47,7 +47,7 @@ vector nanVector()
 
 //- Pressure and viscous force (N) and their moments about the origin (N m)
 //  on this rank's faces of the patch (class patchLoads), NaN where not
-//  computable. Collective (grad(U) across processor patches): every rank
+//  computable. Collective (the sums over the ranks): every rank
 //  calls it at every update.
 stepServer::Loads patchLoadSums(const pointPatch& patch, const scalar rhoInf)
 {
