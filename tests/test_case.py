@@ -378,13 +378,10 @@ def test_read_forces_takes_the_loads_total_before_force_dat(tmp_path):
              ("Fx", "Fy", "Fz", "Fpx", "Fpy", "Fpz", "Fvx", "Fvy", "Fvz", "P", "Pp", "Pv", "A")]
     (tmp_path / "postProcessing" / "loads" / "0").mkdir(parents=True)
     (tmp_path / "postProcessing" / "loads" / "0" / "loads.dat").write_text(
-        "# Loads\n# Time " + " ".join(names) + "\n"
-        + "".join(f"{t} " + " ".join(str(10 * t + k) for k in range(26)) + "\n"
-                  for t in (1, 2)))
+        "# Loads\n# Time " + " ".join(names) + "\n" + "".join(
+            f"{t} " + " ".join(str(10 * t + k) for k in range(26)) + "\n" for t in (1, 2)))
     f = S.read_forces(tmp_path)
-    assert f.shape == (2, 10)
-    assert f[:, 0].tolist() == [1, 2]
-    assert f[1].tolist() == [2, 20, 21, 22, 23, 24, 25, 26, 27, 28]
+    assert f[:, 0].tolist() == [1, 2] and f[1].tolist() == [2, *range(20, 29)]
 
 
 def test_parse_check_mesh():

@@ -73,7 +73,8 @@ Foam::wallGradient::wallGradient(const volVectorField& U) :
     {
         if (U_.boundaryField()[patchi].coupled())
         {
-            neighbours_[patchi] = U_.boundaryField()[patchi].patchNeighbourField();
+            neighbours_[patchi] =
+                U_.boundaryField()[patchi].patchNeighbourField();
         }
     }
 }
@@ -85,7 +86,8 @@ bool Foam::wallGradient::limitedScheme(const fvMesh& mesh, const word& name)
 {
     const ITstream& is = mesh.gradScheme(name);
     const tokenList& t = is;
-    auto isWord = [&t](const label i, const char* w) {
+    auto isWord = [&t](const label i, const char* w)
+    {
         return t[i].isWord() && t[i].wordToken() == w;
     };
 
@@ -197,8 +199,8 @@ void Foam::wallGradient::limit(
     {
         if (facei < nInternal)
         {
-            const label other = (owner[facei] == celli) ? neighbour[facei]
-                                                        : owner[facei];
+            const label other =
+                (owner[facei] == celli) ? neighbour[facei] : owner[facei];
             maxU = max(maxU, U_[other]);
             minU = min(minU, U_[other]);
             continue;
@@ -257,8 +259,9 @@ Foam::tensor Foam::wallGradient::cellGradient(const label celli) const
 }
 
 
-Foam::tmp<Foam::tensorField>
-Foam::wallGradient::patchGradient(const label patchi) const
+Foam::tmp<Foam::tensorField> Foam::wallGradient::patchGradient(
+    const label patchi
+) const
 {
     const labelUList& faceCells = mesh_.boundary()[patchi].faceCells();
     const vectorField& pSf = mesh_.Sf().boundaryField()[patchi];
