@@ -25,7 +25,9 @@ from adapter.foam.case import CASE_RECORD, Case
 from adapter.foam.summary import SUMMARY, format_summary
 from adapter.foam.swimrun import COST_ROWS, GLIDING, answer
 
-#: what the answer reads, relative to the case (and to its gliding folder)
+#: what the answer reads, relative to the case (and to its gliding folder); forces: the
+#: force.dat of a flow-only case without the plugin, or of a case run before loads.dat held
+#: the force
 READ = (CASE_RECORD, SUMMARY, "system/controlDict", "constant/triSurface",
         "postProcessing/loads", "postProcessing/forces")
 

@@ -204,8 +204,10 @@ def test_prepare_case_writes_readable_dictionaries(tmp_path, smoke, smoke_surfac
     assert int(cd["writeInterval"]) == p.steps_per_write
     assert cd["writeControl"] == "timeStep"
     assert str(C.PLUGIN_LIB) in str(cd["libs"])
-    assert cd["functions"]["forces"]["patches"] == ["whale"]
-    assert float(cd["functions"]["forces"]["rhoInf"]) == smoke.flow.rho_kg_m3
+    # the force is loads.dat's (whaleLoads); OpenFOAM's forces would compute it once more
+    assert cd["functions"]["loads"]["patches"] == ["whale"]
+    assert float(cd["functions"]["loads"]["rhoInf"]) == smoke.flow.rho_kg_m3
+    assert "forces" not in cd["functions"]
 
     sh = _read(case / "system" / "snappyHexMeshDict")
     cm = sh["castellatedMeshControls"]
@@ -289,6 +291,10 @@ def test_prepare_case_default_is_turbulent_and_static_option(tmp_path, smoke_sur
         == "fixedValue"
     control = _read(case / "system" / "controlDict")
     assert "libs" not in control and "loads" not in control["functions"]
+    # ... and OpenFOAM's forces in its place: the drag still has its force.dat
+    forces = control["functions"]["forces"]
+    assert forces["type"] == "forces" and forces["patches"] == ["whale"]
+    assert float(forces["rhoInf"]) == scene.flow.rho_kg_m3
     # with it, the static whale keeps the library for its loads function object
     lib = tmp_path / "lib.so"
     lib.write_bytes(b"")
@@ -363,6 +369,19 @@ def test_read_forces_merges_restarts(tmp_path):
     assert f.shape == (3, 10)
     assert f[:, 0].tolist() == [1, 2, 3]
     assert f[2, 1] == 30 and f[2, 3] == 100
+
+
+def test_read_forces_takes_the_loads_total_before_force_dat(tmp_path):
+    # a case with both (run before the template dropped forces): loads.dat's total:F*
+    test_read_forces_merges_restarts(tmp_path)
+    names = [f"{g}:{c}" for g in ("total", "whale") for c in
+             ("Fx", "Fy", "Fz", "Fpx", "Fpy", "Fpz", "Fvx", "Fvy", "Fvz", "P", "Pp", "Pv", "A")]
+    (tmp_path / "postProcessing" / "loads" / "0").mkdir(parents=True)
+    (tmp_path / "postProcessing" / "loads" / "0" / "loads.dat").write_text(
+        "# Loads\n# Time " + " ".join(names) + "\n" + "".join(
+            f"{t} " + " ".join(str(10 * t + k) for k in range(26)) + "\n" for t in (1, 2)))
+    f = S.read_forces(tmp_path)
+    assert f[:, 0].tolist() == [1, 2] and f[1].tolist() == [2, *range(20, 29)]
 
 
 def test_parse_check_mesh():

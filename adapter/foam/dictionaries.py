@@ -101,13 +101,15 @@ def _write_meshing(case: Path, c, p: CaseParameters) -> None:
 
 
 def _write_control(case: Path, scene, p: CaseParameters, static_whale: bool) -> None:
-    """controlDict: the plugin library, the loads and forces function objects, the times."""
+    """controlDict: the plugin library, the loads function object (or OpenFOAM's forces for a
+    flow-only case without the plugin), the times."""
     d = parsed_dict(case / "system" / "controlDict")
     lib = f'"{plugin_lib()}"'
     if static_whale and not plugin_lib().is_file():
-        # a flow-only case without the plugin library: no loads function object either
+        # a flow-only case without the plugin library: OpenFOAM's forces in place of loads
         del d["libs"]
         del d["functions"]["loads"]
+        d["functions"]["forces"] = stock_forces(scene.flow.rho_kg_m3)
     else:
         d["libs"] = [lib]
         d["functions"]["loads"]["libs"] = [lib]
@@ -116,8 +118,15 @@ def _write_control(case: Path, scene, p: CaseParameters, static_whale: bool) -> 
     d["deltaT"] = p.delta_t
     d["timePrecision"] = p.time_precision
     d["writeInterval"] = p.steps_per_write
-    d["functions"]["forces"]["rhoInf"] = scene.flow.rho_kg_m3
     d.writeFile()
+
+
+def stock_forces(rho: float) -> dict:
+    """OpenFOAM's forces function object on the whale, every step (postProcessing/forces/<t0>/
+    force.dat: the totals of whaleLoads' loads.dat, which a case with the plugin writes)."""
+    return {"type": "forces", "libs": ['"libforces.so"'], "writeControl": "timeStep",
+            "writeInterval": 1, "patches": ["whale"], "rho": "rhoInf", "rhoInf": rho,
+            "CofR": [0, 0, 0], "log": "false"}
 
 
 def _write_mesh_motion(case: Path, c, p: CaseParameters, static_whale: bool) -> None:

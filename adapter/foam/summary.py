@@ -1,5 +1,5 @@
 """A run's summary: the numbers of ``<case>/adapter-summary.json`` (:func:`summarise`, from the
-log watch, the case record, the step-server's statistics and the forces) and the table run-case
+log watch, the case record, the step-server's statistics and the loads) and the table run-case
 prints (:func:`format_summary`, one line per row of :data:`SUMMARY_ROWS`)."""
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from adapter.foam import symmetry
+from adapter.foam.loads import read_loads
 from adapter.foam.logs import LogWatch
 from adapter.foamfiles import time_dirs
 from adapter.jsonfiles import (
@@ -25,10 +26,20 @@ SUMMARY = CASE_SUMMARY
 
 
 def read_forces(case_dir) -> np.ndarray:
-    """(T, 10) time, total, pressure and viscous force (N) on the whale from postProcessing.
+    """(T, 10) time, total, pressure and viscous force (N) on the whale: the ``total`` group of
+    whaleLoads' loads.dat (:func:`~adapter.foam.loads.read_loads`), else (a flow-only case
+    without the plugin, or a case run before loads.dat held every step's force) OpenFOAM's
+    forces function object's force.dat. Both the whole body's for a half-domain case."""
+    loads = read_loads(case_dir)
+    names = [f"total:F{part}{axis}" for part in ("", "p", "v") for axis in "xyz"]
+    if all(n in loads for n in names):
+        return np.column_stack([loads["Time"]] + [loads[n] for n in names])
+    return _read_forces_dat(case_dir)
 
-    Files of restarted runs are merged; a later file wins for a time present twice.
-    """
+
+def _read_forces_dat(case_dir) -> np.ndarray:
+    """The forces function object's rows; files of restarted runs are merged, a later file
+    wins for a time present twice."""
     rows: dict = {}
     base = Path(case_dir) / "postProcessing" / "forces"
     files = [f for _, d in time_dirs(base) for f in sorted(d.glob("force*.dat"))]

@@ -198,7 +198,7 @@ def write_block_mesh(case: Path, m: FoilMesh) -> None:
 def prepare_foil_case(case: Path, m: FoilMesh, *, speed: float, nu: float, rho: float,
                       alpha_deg: float, turbulence: bool, ranks: int = 1) -> None:
     """A case folder from the whale's template for the foil: its solver, schemes, solution
-    settings, wall treatment and function objects (forces, whaleLoads, yPlus) on patch
+    settings, wall treatment and function objects (whaleLoads, yPlus) on patch
     ``foil``, the free stream at ``alpha_deg`` on ``farfield``, laminar or kOmegaSST.
 
     A foil case already in ``case`` (an earlier ``validate`` run's: it has the C-grid's
@@ -240,8 +240,6 @@ def _set_control(case: Path, rho: float) -> None:
     lib = f'"{plugin_lib()}"'
     d["libs"] = [lib]
     fo = d["functions"]
-    fo["forces"]["patches"] = [WALL]
-    fo["forces"]["rhoInf"] = rho
     fo["loads"]["patches"] = [WALL]
     fo["loads"]["libs"] = [lib]
     fo["loads"]["rhoInf"] = rho

@@ -47,7 +47,7 @@ vector nanVector()
 
 //- Pressure and viscous force (N) and their moments about the origin (N m)
 //  on this rank's faces of the patch (class patchLoads), NaN where not
-//  computable. Collective (grad(U) across processor patches): every rank
+//  computable. Collective (the sums over the ranks): every rank
 //  calls it at every update.
 stepServer::Loads patchLoadSums(const pointPatch& patch, const scalar rhoInf)
 {
@@ -206,6 +206,12 @@ void stepServerLink::logStats() const
     os << std::fixed << std::setprecision(1) << meanUs;
     Info << "stepServer: " << nRequests_ << " requests, mean "
          << os.str().c_str() << " us per exchange" << endl;
+    const double n = nRequests_ > 0 ? nRequests_ : 1;
+    std::ostringstream parts;
+    parts << std::fixed << std::setprecision(1) << 1e6 * loadsSeconds_ / n
+          << " us loads, " << 1e6 * requestSeconds_ / n;
+    Info << "stepServer: of it " << parts.str().c_str()
+         << " us request and reply" << endl;
 }
 
 
@@ -312,6 +318,7 @@ stepServerLink::exchange(const pointPatch& patch, const scalar rhoInf)
     // Loads from the fields at this mesh update (last completed step),
     // summed over the ranks; NaN for the first request of a connection
     stepServer::Loads loads = patchLoadSums(patch, rhoInf);
+    const auto loadsDone = std::chrono::steady_clock::now();
     if (firstRequest_)
     {
         loads = unknownLoads();
@@ -322,6 +329,10 @@ stepServerLink::exchange(const pointPatch& patch, const scalar rhoInf)
     if (Pstream::master())
     {
         all = request(patch, loads);
+        using seconds = std::chrono::duration<double>;
+        loadsSeconds_ += seconds(loadsDone - start).count();
+        requestSeconds_ +=
+            seconds(std::chrono::steady_clock::now() - loadsDone).count();
     }
     vectorField mine(scatter(all, patch.size()));
 

@@ -22,7 +22,8 @@ const Foam::scalar Foam::patchLoads::defaultRhoInf = 1025;
 Foam::patchLoads::patchLoads(
     const fvMesh& mesh,
     const scalar rhoInf,
-    const word& pName
+    const word& pName,
+    const bool wholeMesh
 ) :
     mesh_(mesh),
     rhoInf_(rhoInf),
@@ -30,11 +31,16 @@ Foam::patchLoads::patchLoads(
     turbPtr_(mesh.findObject<incompressible::turbulenceModel>(
         incompressible::turbulenceModel::propertiesName
     )),
+    wallGradPtr_(),
     tgradU_()
 {
-    if (turbPtr_)
+    if (turbPtr_ && wholeMesh)
     {
         tgradU_ = fvc::grad(turbPtr_->U());
+    }
+    else if (turbPtr_)
+    {
+        wallGradPtr_.reset(new wallGradient(turbPtr_->U()));
     }
 }
 
@@ -55,11 +61,16 @@ Foam::tmp<Foam::vectorField> Foam::patchLoads::pressure(const label patchi
 
 Foam::tmp<Foam::vectorField> Foam::patchLoads::viscous(const label patchi) const
 {
+    const tmp<tensorField> tgradUp(
+        wallGradPtr_.valid()
+            ? wallGradPtr_->patchGradient(patchi)
+            : tmp<tensorField>(tgradU_().boundaryField()[patchi])
+    );
+
     // devReff's value on the patch, the same operations in the same order:
     // (-nuEff)*dev(twoSymm(grad(U)))
     const symmTensorField devReff(
-        (-turbPtr_->nuEff(patchi))
-        * dev(twoSymm(tgradU_().boundaryField()[patchi]))
+        (-turbPtr_->nuEff(patchi)) * dev(twoSymm(tgradUp()))
     );
     return rhoInf_ * (mesh_.Sf().boundaryField()[patchi] & devReff);
 }

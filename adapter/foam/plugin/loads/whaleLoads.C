@@ -72,8 +72,8 @@ Foam::wordList Foam::functionObjects::whaleLoads::groupNames() const
 
 Foam::whaleLoadSums Foam::functionObjects::whaleLoads::calcLoads() const
 {
-    // Collective (devReff: grad(U) across processor patches)
-    const patchLoads loads(mesh_, rhoInf_, pName_);
+    // Collective only with gradient whole (grad(U) across processor patches)
+    const patchLoads loads(mesh_, rhoInf_, pName_, wholeMeshGradient_);
     const volVectorField* UPtr = mesh_.findObject<volVectorField>(UName_);
 
     if (!loads.hasPressure() || !UPtr)
@@ -176,6 +176,7 @@ Foam::functionObjects::whaleLoads::whaleLoads(
     rhoInf_(patchLoads::defaultRhoInf),
     pName_("p"),
     UName_("U"),
+    wholeMeshGradient_(false),
     regionsFile_(),
     regionsPtr_(),
     filePtr_()
@@ -210,6 +211,14 @@ bool Foam::functionObjects::whaleLoads::read(const dictionary& dict)
     }
     pName_ = dict.getOrDefault<word>("p", "p");
     UName_ = dict.getOrDefault<word>("U", "U");
+    const word gradient(dict.getOrDefault<word>("gradient", "cells"));
+    if (gradient != "cells" && gradient != "whole")
+    {
+        FatalIOErrorInFunction(dict)
+            << type() << " " << name() << ": gradient " << gradient
+            << " is not cells (the default) or whole" << exit(FatalIOError);
+    }
+    wholeMeshGradient_ = (gradient == "whole");
 
     // The faces' regions are (re)made at the next execution
     regionsFile_.clear();
@@ -224,7 +233,8 @@ bool Foam::functionObjects::whaleLoads::read(const dictionary& dict)
     {
         Info << " " << mesh_.boundaryMesh()[patchi].name();
     }
-    Info << ", rhoInf " << rhoInf_;
+    Info << ", rhoInf " << rhoInf_ << ", grad(U) of the "
+         << (wholeMeshGradient_ ? "whole mesh" : "patch cells");
     if (!regionsFile_.empty())
     {
         Info << ", regions from " << regionsFile_;
