@@ -77,7 +77,7 @@ def _root_loop(surface):
 
 @pytest.fixture(scope="module")
 def default_whale(smoke_scene):
-    return build_surface(smoke_scene.replace(geometry={"nodes": 11272}))
+    return build_surface(smoke_scene.replace(geometry={"nodes": 11272, "flipper_root": "foil"}))
 
 
 def test_the_flipper_root_is_a_foil_footprint_on_the_flank(default_whale):
