@@ -228,6 +228,10 @@ def test_study_machinery_with_a_model_runner_stops_resumes_and_answers(tmp_path,
     with pytest.raises(AdapterError, match="another plan"):
         S.run_study(smoke_scene, out, runner=third.runner, mesher=third.mesher,
                     **{**kw, "ratio": 1.5})
+    # so is the same plan with any other value of the scene (not only another file's name)
+    other = smoke_scene.replace(stroke={"frequency_hz": smoke_scene.stroke.frequency_hz * 1.1})
+    with pytest.raises(AdapterError, match="another scene.*stroke.frequency_hz"):
+        S.run_study(other, out, runner=third.runner, mesher=third.mesher, **kw)
 
 
 #: the smoke whale with long flow steps: 8 a cycle (a binary period of 8 s, steps of 1 s),

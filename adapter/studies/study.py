@@ -43,15 +43,19 @@ import numpy as np
 
 from adapter.errors import AdapterError, UsageError
 from adapter.foam.case import Case, prepare_case, write_json
+from adapter.foam.casescene import portable, scene_differences
 from adapter.foam.mesh import mesh_case
 from adapter.foam.parallel import ranks_option
 from adapter.foam.parameters import case_parameters
 from adapter.foam.summary import finite
 from adapter.options import default_folder, in_file, number, out_folder, positive
+from adapter.scenefile import write_scene
 from adapter.studies.study_analysis import analyse, case_done
 from adapter.studies.study_report import format_study, plot_accuracy_vs_cost, write_study_report
 
 PLAN = "study-plan.json"
+#: every value of the scene the study was started with: a continued study must ask the same
+SCENE = "study-scene.toml"
 RESULT = "study.json"
 CHART = "accuracy-vs-cost.png"
 DEFAULT_RATIO = 1.3
@@ -180,6 +184,27 @@ def plan_cases(scene, surface, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEE
     return cases
 
 
+def _check_scene(out: Path, scene, source: str) -> None:
+    """Refuse a study folder whose study was started with another scene (any value, not only
+    its file's name); write the scene there when the folder has none yet."""
+    path = out / SCENE
+    if not path.is_file():
+        out.mkdir(parents=True, exist_ok=True)
+        write_scene(portable(scene), path,
+                    "The scene this flow study was started with, every value, written by\n"
+                    "whale-adapter: continuing the study in this folder asks for the same.\n"
+                    f"Started from: {source}")
+        return
+    from adapter.scene import load_scene
+
+    differs = scene_differences(scene, load_scene(path))
+    if differs:
+        raise AdapterError(
+            f"{out} holds a study of another scene ({'; '.join(differs[:3])}"
+            f"{'; ...' if len(differs) > 3 else ''}: asked vs {path.name}); run it with the "
+            "same scene to continue it, or choose another --out")
+
+
 def _check_plan(out: Path, plan: dict) -> None:
     path = out / PLAN
     if path.is_file():
@@ -239,6 +264,7 @@ def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS
     plan = {"scene_file": str(Path(scene_file).resolve()) if scene_file else None,
             "preset": scene.name, "ratio": ratio, "speeds": speeds, "finest": finest}
     _check_plan(out, plan)
+    _check_scene(out, scene, plan["scene_file"] or f"preset {scene.name}")
     cases = plan_cases(scene, surface, ratio, speeds, parts, finest)
     failed = {}
     t0 = time.perf_counter()
