@@ -186,6 +186,8 @@ class Case:
     dt_s: float = field(default=0.0, metadata={"check": _non_negative})
     writes_per_cycle: int = field(default=4, metadata={"check": _within(1)})
     turbulence: str = field(default="kOmegaSST", metadata={"choices": ("kOmegaSST", "laminar")})
+    #: PIMPLE's outer correctors a flow step (1: PISO-like; the mesh moves once a step)
+    outer_correctors: int = field(default=1, metadata={"check": _within(1, 20)})
     ranks: int = field(default=0, metadata={"check": _within(0)})   # 0: the machine's cores
     #: the inflow ramps in from still water over this many stroke cycles (0: impulsive)
     inflow_ramp_cycles: float = field(default=0.5, metadata={"check": _non_negative})

@@ -56,6 +56,7 @@ def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool,
     _write_mesh_motion(case, scene.case, p, static_whale)
     set_decomposition(case, p.ranks, decomposition)
     _write_physics(case, scene)
+    _write_solution(case, scene.case)
     _write_initial_fields(case, scene, p, static_whale)
 
 
@@ -118,6 +119,15 @@ def _write_control(case: Path, scene, p: CaseParameters, static_whale: bool) -> 
     d["deltaT"] = p.delta_t
     d["timePrecision"] = p.time_precision
     d["writeInterval"] = p.steps_per_write
+    d.writeFile()
+
+
+def _write_solution(case: Path, c) -> None:
+    """fvSolution: PIMPLE's outer correctors (``case.outer_correctors``); the mesh moves and
+    the step-server is asked once a step whatever their number (``moveMeshOuterCorrectors``
+    off)."""
+    d = parsed_dict(case / "system" / "fvSolution")
+    d["PIMPLE"]["nOuterCorrectors"] = c.outer_correctors
     d.writeFile()
 
 
