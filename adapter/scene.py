@@ -46,6 +46,8 @@ class Geometry:
     fin_sections: str = field(default="naca", metadata={"choices": ("naca", "ellipse")})
     #: the flippers' root on the flank: "foil" (the root section's footprint) or "rectangle"
     flipper_root: str = field(default="foil", metadata={"choices": ("foil", "rectangle")})
+    #: the flukes' root on the tail stock: "foil" (the root section's footprint) or "rectangle"
+    fluke_root: str = field(default="rectangle", metadata={"choices": ("foil", "rectangle")})
     landmarks: dict = field(default_factory=dict)  #: a mesh file's LANDMARKS, its coordinates (m)
     landmark_tolerance: float = field(default=0.01, metadata={"check": _positive})
 

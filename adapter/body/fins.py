@@ -20,7 +20,7 @@ FLIPPER_TIP_ROUNDING = 0.10
 #: the outer share of a fin's span over which its sections turn from the foil into an ellipse
 TIP_ROUND = 0.2
 FLUKE_THICKNESS = (0.20, 0.12)
-#: a flipper's foil root (adapter/body/procedural.py ``_foil_root``): its nose lies this share
+#: a fin's foil root (adapter/body/footprint.py ``foil_root``): its nose lies this share
 #: of a ring spacing ahead of the patch, its trailing point this share behind it
 ROOT_LEAD = 0.5
 ROOT_TRAIL = 0.5

@@ -18,15 +18,13 @@ from adapter.body.fins import (
     FLIPPER_THICKNESS,
     FLIPPER_TIP_ROUNDING,
     FLUKE_THICKNESS,
-    ROOT_LEAD,
-    ROOT_TRAIL,
     TIP_ROUND,
     Fin,
     fin_layers,
     flat,
-    foil_half_thickness,
     patch_loop,
 )
+from adapter.body.footprint import foil_root
 from adapter.body.landmarks import TAIL_BASE_S
 from adapter.body.regions import BODY, FLIPPERS, FLUKES
 from adapter.errors import GeometryError
@@ -100,7 +98,7 @@ def _section(s: np.ndarray, n_phi: int, length: float) -> np.ndarray:
 
 def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float = 0.32,
                      with_regions: bool = False, sections: str = "naca",
-                     flipper_root: str = "foil"):
+                     flipper_root: str = "foil", fluke_root: str = "rectangle"):
     """Build the procedural right whale: (points, faces, landmarks), and with ``with_regions``
     a fourth item, ``face_regions``: per face group the region index (:data:`REGIONS`) each
     face was built as: the flipper fins' extrusion layers and tip caps FLIPPERS, the fluke
@@ -109,25 +107,30 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
     ``nodes`` is met to within a ring of the body (about 0.6 % at the default 11,272).
     ``sections``: the fins' sections, ``"naca"`` (hydrofoils) or ``"ellipse"`` (the first
     rounds' elliptic sections, blunt at both edges). ``flipper_root``: the flippers' root
-    loop on the flank, ``"foil"`` (the root section's outline, :func:`_foil_root`) or
-    ``"rectangle"`` (the paper's way: the patch's rectangle, a blunt shoulder at its leading
-    side while the layers blend it into the sections).
+    loop on the flank, ``"foil"`` (the root section's outline,
+    :func:`adapter.body.footprint.foil_root`) or ``"rectangle"`` (the paper's way: the
+    patch's rectangle, a blunt shoulder at its leading side while the layers blend it into
+    the sections). ``fluke_root``: the same for the flukes' root loop on the tail stock's
+    side, the foil cut at the patch's last ring.
     """
     if nodes < 400:
         raise GeometryError(f"nodes = {nodes} is too coarse for a whale; use at least 400")
     if sections not in ("naca", "ellipse"):
         raise GeometryError(f"fin sections {sections!r}: use \"naca\" or \"ellipse\"")
-    if flipper_root not in ("foil", "rectangle"):
-        raise GeometryError(f"flipper root {flipper_root!r}: use \"foil\" or \"rectangle\"")
+    for name, root in (("flipper", flipper_root), ("fluke", fluke_root)):
+        if root not in ("foil", "rectangle"):
+            raise GeometryError(f"{name} root {root!r}: use \"foil\" or \"rectangle\"")
     naca = sections == "naca"
     n_phi, s, n_x, (fa, fb, fm), (ka, kb, km) = _resolution(nodes)
     rings = _section(s, n_phi, length)
     flipper, fl_loop, fl_inner = _flipper(rings, s, n_phi, (fa, fb, fm), length, naca)
     fluke, ku_loop = _fluke(rings, n_x, n_phi, (ka, kb, km), length, fluke_span, naca)
     body = _Body(rings, n_x, n_phi, length)
-    moved = _foil_root(s, n_phi, flipper, fl_loop, length) if flipper_root == "foil" else {}
+    moved = foil_root(s, n_phi, flipper, _left_half, length) if flipper_root == "foil" else {}
     body.attach("flipper", flipper, fl_loop, fl_inner, moved)
-    body.attach("fluke", fluke, ku_loop, patch_loop(fluke, n_phi)[1])
+    moved = foil_root(s, n_phi, fluke, _left_half, length, cut=True) if fluke_root == "foil" \
+        else {}
+    body.attach("fluke", fluke, ku_loop, patch_loop(fluke, n_phi)[1], moved)
     points, faces, face_regions = body.surface()
 
     def farthest(cands, direction):
@@ -196,56 +199,6 @@ def _flipper(rings, s, n_phi: int, counts, length: float, naca: bool):
     return flipper, fl_loop, fl_inner
 
 
-def _foil_root(s: np.ndarray, n_phi: int, fin: Fin, loop_rc, length: float,
-               lead: float = ROOT_LEAD, trail: float = ROOT_TRAIL) -> dict:
-    """A fin's root loop moved on the body's surface into the footprint of a foil: the
-    symmetric NACA section of the fin's root thickness ratio, its chord along the patch's
-    middle line (the phi of the short sides' middle nodes). The nose (the leading side's middle
-    node) moves forward by ``lead`` of the ring spacing ahead of the patch, the trailing point
-    back by ``trail`` of the one behind; every other loop node keeps its ring and moves around
-    it to the foil's half-thickness at its ring's chord fraction, measured as arc length along
-    the ring. Where the foil is wider than the patch the rows beside its long sides make room,
-    each farther row by less, so that no quad there narrows below 0.6 of its width. Returns
-    ``{(ring, phi index): position}`` of every node that moves (the left side). A patch two
-    quads across (``fin.b``), whose short sides' middle nodes make the nose and the tail."""
-    i0, i1, j0, j1 = fin.ring0, fin.ring0 + fin.a, fin.phi0, fin.phi0 + fin.b
-    jc = fin.phi0 + fin.b // 2
-    s_nose = s[i0] - lead * (s[i0] - s[i0 - 1])
-    s_tail = s[i1] + trail * (s[i1 + 1] - s[i1])
-    chord, dphi = (s_tail - s_nose) * length, 2 * np.pi / n_phi
-    tc = fin.thickness_ratio(0.0)
-
-    def at(st, phi):
-        y, z = _left_half(np.array([st]), np.array([phi]), length)
-        return np.array([st * length, y[0, 0], z[0, 0]])
-
-    moved = {(i0, jc): at(s_nose, jc * dphi), (i1, jc): at(s_tail, jc * dphi)}
-    shift = {}   # (ring, phi index) of a long side's node -> its turn about the body (rad)
-    for i in range(i0, i1 + 1):
-        half = float(foil_half_thickness(np.array((s[i] - s_nose) / (s_tail - s_nose)), tc))
-        for j in (j0, j1):
-            shift[(i, j)] = _phi_at_arc(s[i], jc * dphi, np.sign(j - jc) * half * chord,
-                                        length) - j * dphi
-    widest = max(max(-d if j == j0 else d for (_, j), d in shift.items()), 0.0)
-    rows = max(int(np.ceil(widest / (0.4 * dphi))) - 1, 0)  # rows beside a side that make room
-    for (i, j), d in shift.items():
-        out = 1 if j == j1 else -1
-        for k in range(rows + 1):
-            moved[(i, j + out * k)] = at(s[i], (j + out * k) * dphi + d * (1 - k / (rows + 1)))
-    return moved
-
-
-def _phi_at_arc(st: float, phi_c: float, arc: float, length: float) -> float:
-    """The angle phi on the ring at station ``st`` that lies ``arc`` (m, signed: toward larger
-    phi when positive) along the ring from ``phi_c``."""
-    phi = phi_c + np.linspace(-0.6, 0.6, 1201)
-    y, z = _left_half(np.array([st]), phi, length)
-    seg = np.hypot(np.diff(y[0]), np.diff(z[0]))
-    along = np.concatenate([[0.0], np.cumsum(seg)])
-    along -= np.interp(phi_c, phi, along)
-    return float(np.interp(arc, along, phi))
-
-
 def _fluke(rings, n_x: int, n_phi: int, counts, length: float, fluke_span: float, naca: bool):
     """The left fluke (:class:`Fin`) and its patch's loop: a swept wing from the side of the
     tail stock, span ``fluke_span`` L tip to tip."""
@@ -295,7 +248,8 @@ class _Body:
     def attach(self, name: str, fin: Fin, loop_rc, inner_rc, moved=None) -> None:
         """Grow ``fin`` out of its patch on the left side and its mirror on the right;
         ``moved``: ``{(ring, phi index): position}``, body nodes of the left side moved first
-        (:func:`_foil_root`; the right side's mirrored), its root loop among them."""
+        (:func:`adapter.body.footprint.foil_root`; the right side's mirrored), its root loop
+        among them."""
         moved = moved or {}
         for (i, j), xyz in moved.items():
             self.pts[0][self.node(i, j)] = xyz
