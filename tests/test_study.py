@@ -294,9 +294,43 @@ def test_oscillating_or_diverging_meshes_are_not_extrapolated():
     assert fx["difference"]["1"] == 0.0
     assert drag["convergence"] == "divergent" and drag["band_is_lower_bound"]
     assert drag["band_mesh2_abs"] == pytest.approx(650.25 - 621.45)
-    # monotone: e21 = 10, e32 = 20 at r = 1.3: p = ln 2 / ln 1.3, f_ext = 1000 - 10 / (2 - 1)
+    # monotone: e21 = 10, e32 = 20 at r = 1.3: p = ln 2 / ln 1.3 = 2.64, above the formal 2,
+    # so f_ext = 1000 - 10 / (1.3^2 - 1) (with p observed it would be 990)
     assert power["convergence"] == "monotone" and power["reference"] == "extrapolated"
-    assert power["extrapolated"] == pytest.approx(990.0, rel=1e-6)
+    assert power["extrapolated"] == pytest.approx(1000 - 10 / 0.69, rel=1e-9)
+
+
+def test_an_order_above_the_formal_one_is_capped_and_one_too_slow_is_not_extrapolated():
+    """f = 100 + c h^p on h = 1, 1.3, 1.69: p = 3 is above the schemes' formal order 2, so the
+    extrapolation and the GCI take p = 2 (Roache), and say so; p = 0.2 is below 0.5: no
+    extrapolation, the spread a lower bound, the chooser vouches for no mesh."""
+    h = {1: 1.0, 2: 1.3, 3: 1.69}
+
+    def figure(p):
+        return [100 + h[k] ** p for k in (1, 2, 3)]
+
+    cases = {f"mesh-{k}/case": {"background_cell_m": h[k], "gliding_drag": figure(0.2)[k - 1],
+                                "swimming_fx": -figure(1.0)[k - 1],
+                                "swimming_power": figure(3.0)[k - 1], "cells": 1000 * k,
+                                "wall_s_per_cycle": 10.0 / k} for k in h}
+    ms = A.mesh_study({k: cases[f"mesh-{k}/case"] for k in h})
+    drag, fx, power = (ms["figures"][k] for k in ("gliding_drag", "swimming_fx",
+                                                   "swimming_power"))
+    f1, f2 = figure(3.0)[:2]
+    assert power["order_capped"] and power["p_observed"] == pytest.approx(3.0, rel=1e-9)
+    assert power["p"] == 2.0
+    assert power["extrapolated"] == pytest.approx((1.69 * f1 - f2) / 0.69, rel=1e-12)
+    assert power["gci_fine_abs"] == pytest.approx(1.25 * (f2 - f1) / 0.69, rel=1e-12)
+    assert fx["p"] == pytest.approx(1.0, rel=1e-9) and not fx.get("order_capped")
+    assert drag["convergence"] == "too slow" and drag["extrapolated"] is None
+    assert drag["p_observed"] == pytest.approx(0.2, rel=1e-9) and drag["band_is_lower_bound"]
+    # mean Fx is measured against the finest mesh's drag, not an extrapolation of it
+    assert fx["scale"] == pytest.approx(figure(0.2)[0])
+    report = A.choose_flow_mesh({"cases": cases, "meshes": ms}, 0.5)
+    assert report["mesh"] is None and report["divergent"] == ["gliding drag (N)"]
+    table = R.format_study({"cases": cases, "meshes": ms})
+    assert "observed order 3.00, above the formal 2" in table
+    assert "observed order 0.20: too slow to extrapolate" in table
 
 
 def test_the_chooser_counts_the_band_of_an_unextrapolated_value_and_refuses_divergence():

@@ -179,7 +179,7 @@ def _choose_flow_mesh(args: argparse.Namespace) -> int:
 
     from adapter.errors import AdapterError
     from adapter.studies.study import RESULT
-    from adapter.studies.study_analysis import choose_flow_mesh
+    from adapter.studies.study_analysis import SLOWEST_ORDER, choose_flow_mesh
 
     if not args.tolerance or args.tolerance <= 0:
         raise UsageError("choose --flow-study: give --tolerance, a fraction (0.05 = 5 %)")
@@ -190,7 +190,8 @@ def _choose_flow_mesh(args: argparse.Namespace) -> int:
     report = choose_flow_mesh(json.loads(path.read_text()), args.tolerance)
     if report.get("divergent"):
         print(f"no mesh of the study can be vouched for within {args.tolerance:.1%}: "
-              f"{', '.join(report['divergent'])} diverge over the three meshes (their spread, "
+              f"{', '.join(report['divergent'])} diverge or converge too slowly (observed "
+              f"order under {SLOWEST_ORDER}) over the three meshes (their spread, "
               f"up to {report['worst_difference']:.1%}, is only a lower bound of the error); "
               "a study on finer meshes is needed (docs/case.md, \"The flow study\")")
     elif report["mesh"] is None:

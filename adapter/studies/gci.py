@@ -93,15 +93,19 @@ def gci(f1: float, f2: float, f3: float, r21: float, r32: float | None = None,
     p = observed_order(f1, f2, f3, r21, r32)
     if not math.isfinite(p) or p <= 0:
         return out
+    out.update(with_order(f1, f2, f3, r21, r32, p, safety))
+    return out
+
+
+def with_order(f1: float, f2: float, f3: float, r21: float, r32: float, p: float,
+               safety: float = SAFETY) -> dict:
+    """The extrapolated value and the GCIs of three values for a given order ``p`` (the
+    observed one, or the formal one in its place): ``p``, ``extrapolated``, ``gci_fine_abs``,
+    ``e_a``, ``gci_fine``, ``e_ext``, ``gci_coarse`` (None where a value is zero)."""
     a21, a32 = r21**p, r32**p
     ext = (a21 * f1 - f2) / (a21 - 1)
-    band = safety * abs(f2 - f1) / (a21 - 1)
-    out.update(p=p, extrapolated=ext, gci_fine_abs=band)
-    if f1 != 0:
-        out["e_a"] = abs((f1 - f2) / f1)
-        out["gci_fine"] = safety * out["e_a"] / (a21 - 1)
-    if ext != 0:
-        out["e_ext"] = abs((ext - f1) / ext)
-    if f2 != 0:
-        out["gci_coarse"] = safety * abs((f2 - f3) / f2) / (a32 - 1)
-    return out
+    e_a = abs((f1 - f2) / f1) if f1 != 0 else None
+    return {"p": p, "extrapolated": ext, "gci_fine_abs": safety * abs(f2 - f1) / (a21 - 1),
+            "e_a": e_a, "gci_fine": None if e_a is None else safety * e_a / (a21 - 1),
+            "e_ext": abs((ext - f1) / ext) if ext != 0 else None,
+            "gci_coarse": safety * abs((f2 - f3) / f2) / (a32 - 1) if f2 != 0 else None}

@@ -83,6 +83,31 @@ def _scale(name: str, values: dict) -> float:
     return abs(ref) if ref else float("nan")
 
 
+#: the formal order in space of the momentum equation's schemes (linearUpwind, linear; k and
+#: omega are upwind, first order): an observed order above it lies outside the asymptotic
+#: range, so the extrapolation and the GCI take this order instead (Roache's choice)
+FORMAL_ORDER = 2.0
+#: below this observed order the three meshes are too far from the asymptotic range for
+#: Richardson extrapolation (a GCI would be many times the differences)
+SLOWEST_ORDER = 0.5
+
+
+def bounded_order(g: dict) -> dict:
+    """A monotone figure ``g`` (:func:`adapter.studies.gci.gci`'s dict) with its observed order
+    held to [SLOWEST_ORDER, FORMAL_ORDER]: above, extrapolated and GCI from FORMAL_ORDER
+    (``p_observed`` keeps the observed one, ``order_capped`` True); below, ``convergence``
+    "too slow" and no extrapolation or GCI, like a divergent figure."""
+    p = g.get("p")
+    if g["convergence"] != "monotone" or p is None or SLOWEST_ORDER <= p <= FORMAL_ORDER:
+        return g
+    if p < SLOWEST_ORDER:
+        return {**g, "convergence": "too slow", "p_observed": p, "extrapolated": None,
+                "gci_fine": None, "gci_fine_abs": None, "gci_coarse": None, "e_ext": None}
+    f1, f2, f3 = g["values"]
+    return {**g, **G.with_order(f1, f2, f3, g["r21"], g["r32"], FORMAL_ORDER, g["safety"]),
+            "p_observed": p, "order_capped": True}
+
+
 def mesh_study(meshes: dict) -> dict:
     """GCI of each figure from the three meshes' results ({1: result, 2: ..., 3: ...})."""
     h = {k: meshes[k]["background_cell_m"] for k in (1, 2, 3)}
@@ -92,7 +117,7 @@ def mesh_study(meshes: dict) -> dict:
     for key, _, label in FIGURES:
         f = [meshes[k][key] for k in (1, 2, 3)]
         if all(v is not None for v in f):
-            gs[key] = G.gci(f[0], f[1], f[2], r21, r32)
+            gs[key] = bounded_order(G.gci(f[0], f[1], f[2], r21, r32))
             gs[key]["label"] = label
     # the best value of each figure: extrapolated when the three converge monotonically; the
     # finest mesh's otherwise (an oscillating or diverging sequence gives no trustworthy
@@ -220,17 +245,19 @@ def choose_flow_mesh(study: dict, tolerance: float) -> dict:
     """The coarsest mesh of a finished study whose figures all lie within ``tolerance`` (a
     fraction of each figure's scale: mean Fx of the gliding drag) of their best values
     (:func:`mesh_error`); None when even mesh 1 does not, with the cell size the worst figure
-    would need (from its observed order), or when a figure diverges over the three meshes
-    (``divergent``: its error is unknown; the spread of the three is a lower bound)."""
+    would need (from its observed order), or when a figure diverges over the three meshes or
+    converges too slowly (``divergent``: its error is unknown; the spread of the three is a
+    lower bound)."""
     ms = study.get("meshes")
     if not ms or not ms.get("figures"):
         raise AdapterError("the study has no finished mesh study (study.json 'meshes')")
     figs = ms["figures"]
-    divergent = [g["label"] for g in figs.values() if g["convergence"] == "divergent"]
+    unknown = ("divergent", "too slow")
+    divergent = [g["label"] for g in figs.values() if g["convergence"] in unknown]
     if divergent:
         return {"mesh": None, "tolerance": tolerance, "divergent": divergent,
                 "worst_difference": max(g["spread_abs"] / g["scale"] for g in figs.values()
-                                        if g["convergence"] == "divergent"),
+                                        if g["convergence"] in unknown),
                 "background_cell_m_needed": None}
     for k in (3, 2, 1):
         worst = max(mesh_error(g, k) for g in figs.values())

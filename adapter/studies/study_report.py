@@ -106,6 +106,10 @@ def format_study(study: dict) -> str:
             if g["convergence"] == "oscillatory" and g.get("gci_fine") is not None:
                 # Celik et al.'s procedure takes p from |R| for an oscillating sequence
                 note += f"; Celik's GCI from |R| {g['gci_fine']:.2%} (p {g['p']:.2f})"
+            if g.get("order_capped"):
+                note += f"; observed order {g['p_observed']:.2f}, above the formal {g['p']:g}"
+            elif g["convergence"] == "too slow":
+                note += f"; observed order {g['p_observed']:.2f}: too slow to extrapolate"
             lines.append(f"  {g['label']:<22} {g['convergence']:<11} p {p:>5}  extrapolated "
                          f"{ext:>9}  GCI(mesh 1) {gf}{note}")
     ts = study.get("time_step")
