@@ -128,8 +128,9 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
     body = _Body(rings, n_x, n_phi, length)
     moved = foil_root(s, n_phi, flipper, _left_half, length) if flipper_root == "foil" else {}
     body.attach("flipper", flipper, fl_loop, fl_inner, moved)
-    moved = foil_root(s, n_phi, fluke, _left_half, length, cut=True) if fluke_root == "foil" \
-        else {}
+    moved = {}
+    if fluke_root == "foil":
+        moved = foil_root(s, n_phi, fluke, _left_half, length, cut=True)
     body.attach("fluke", fluke, ku_loop, patch_loop(fluke, n_phi)[1], moved)
     points, faces, face_regions = body.surface()
 
