@@ -190,6 +190,9 @@ class Case:
     turbulence: str = field(default="kOmegaSST", metadata={"choices": ("kOmegaSST", "laminar")})
     #: PIMPLE's outer correctors a flow step (1: PISO-like; the mesh moves once a step)
     outer_correctors: int = field(default=1, metadata={"check": _within(1, 20)})
+    #: the flow's time scheme (fvSchemes ddtSchemes): first-order "Euler" or second-order
+    #: "backward" (docs/case.md, "Time scheme")
+    time_scheme: str = field(default="Euler", metadata={"choices": ("Euler", "backward")})
     ranks: int = field(default=0, metadata={"check": _within(0)})   # 0: the machine's cores
     #: the inflow ramps in from still water over this many stroke cycles (0: impulsive)
     inflow_ramp_cycles: float = field(default=0.5, metadata={"check": _non_negative})

@@ -1,5 +1,5 @@
-"""PIMPLE's outer correctors from the scene (``case.outer_correctors``) in the case's
-fvSolution, with the mesh moved once a step."""
+"""PIMPLE's outer correctors (``case.outer_correctors``) in the case's fvSolution, with the mesh
+moved once a step, and the time scheme (``case.time_scheme``) in its fvSchemes."""
 
 from __future__ import annotations
 
@@ -22,3 +22,15 @@ def test_outer_correctors_reach_fvsolution_and_the_mesh_moves_once_a_step(tmp_pa
     assert smoke_scene.case.outer_correctors == 1
     with pytest.raises(SceneError, match="outer_correctors"):
         smoke_scene.replace(case={"outer_correctors": 0})
+
+
+def test_the_time_scheme_reaches_fvschemes(tmp_path, smoke_scene, smoke_surface):
+    for scheme in ("Euler", "backward"):
+        case = tmp_path / f"case-{scheme}"
+        C.prepare_case(smoke_scene.replace(case={"time_scheme": scheme}), case,
+                       surface=smoke_surface)
+        ddt = ParsedParameterFile(str(case / "system" / "fvSchemes"))["ddtSchemes"]
+        assert ddt["default"] == scheme
+    assert smoke_scene.case.time_scheme == "Euler"
+    with pytest.raises(SceneError, match="time_scheme"):
+        smoke_scene.replace(case={"time_scheme": "CrankNicolson"})

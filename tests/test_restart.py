@@ -104,6 +104,32 @@ def test_a_restart_from_a_users_start_time_repeats_the_run(tmp_path, reference, 
 
 
 @pytest.fixture(scope="module")
+def reference_backward(tmp_path_factory):
+    """The smoke case with the second-order ``backward`` time scheme, written every step."""
+    case = tmp_path_factory.mktemp("restart-backward") / "reference"
+    C.prepare_case(load_scene(preset="smoke").replace(case={"time_scheme": "backward"}), case)
+    _control(case, writeInterval=1)
+    M.mesh_case(case)
+    R.run_case(case, progress=False)
+    times = [d.name for _, d in F.time_dirs(case)]
+    assert len(times) == 9
+    return case, times
+
+
+def test_a_backward_restart_from_an_odd_step_repeats_the_run(tmp_path, reference_backward):
+    """``backward`` needs two old levels: U_0, phi_0 and the mesh's V0 written at the time."""
+    ref, times = reference_backward
+    step = 3
+    case = _copy_until(ref, tmp_path / "case", times, step)
+    assert (case / times[step] / "U_0").is_file()
+    summary = R.run_case(case, progress=False)
+    assert summary["steps"] == 8 - step
+    diff = _differences(case, ref, times[-1])
+    print(f"backward, restart from step {step}: {diff}")
+    assert max(diff.values()) < TOLERANCE, diff
+
+
+@pytest.fixture(scope="module")
 def reference_2_ranks(tmp_path_factory):
     """The same on 2 ranks, its times left in the processor folders."""
     case = tmp_path_factory.mktemp("restart2") / "reference"

@@ -57,6 +57,7 @@ def write_dictionaries(case: Path, scene, p: CaseParameters, static_whale: bool,
     set_decomposition(case, p.ranks, decomposition)
     _write_physics(case, scene)
     _write_solution(case, scene.case)
+    _write_schemes(case, scene.case)
     _write_initial_fields(case, scene, p, static_whale)
 
 
@@ -128,6 +129,15 @@ def _write_solution(case: Path, c) -> None:
     off)."""
     d = parsed_dict(case / "system" / "fvSolution")
     d["PIMPLE"]["nOuterCorrectors"] = c.outer_correctors
+    d.writeFile()
+
+
+def _write_schemes(case: Path, c) -> None:
+    """fvSchemes: the time scheme (``case.time_scheme``). With ``backward`` OpenFOAM writes the
+    old-time fields (U_0, phi_0, ...) and the mesh's old volumes with every time, so a restart
+    has the two levels the scheme needs."""
+    d = parsed_dict(case / "system" / "fvSchemes")
+    d["ddtSchemes"]["default"] = c.time_scheme
     d.writeFile()
 
 
