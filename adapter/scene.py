@@ -220,7 +220,8 @@ class Case:
     decomposition: str = "hierarchical"
     parallel_meshing: bool = False
     reconstruct: bool = False
-    symmetry: str = field(default="auto", metadata={"choices": ("auto", "off")})   # y = 0 plane
+    #: "mirror": the full domain meshed as the half and its mirror image (a mirror-symmetric mesh)
+    symmetry: str = field(default="auto", metadata={"choices": ("auto", "off", "mirror")})
 
 
 @dataclass(frozen=True)

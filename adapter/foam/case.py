@@ -103,15 +103,16 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
                                       scene.case.fluke_clearance * params.fluke_cell_m)
     decomposition = choose_decomposition(case, scene.case.decomposition, scene.base_dir)
     half = symmetry.use_half_domain(scene, surface)
-    if half:
+    mirror = symmetry.use_mirror_mesh(scene, surface)
+    if half or mirror:
         lo, hi, cells = symmetry.half_box(params.domain_min, params.domain_max, params.cells,
                                           params.cell_size)
         params = replace(params, domain_min=lo, domain_max=hi, cells=cells)
     write_dictionaries(case, scene, params, static_whale, decomposition)
-    if half:
-        symmetry.write_half_domain(case)
-    Case(case).save(_case_record(scene, surface, params, scene_file, static_whale, half,
-                                 decomposition))
+    if half or mirror:
+        symmetry.write_half_domain(case, fields=half)
+    record = _case_record(scene, surface, params, scene_file, static_whale, half, decomposition)
+    Case(case).save({**record, symmetry.MIRROR_KEY: mirror})
     return params
 
 

@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 from adapter.errors import AdapterError, MeshError
+from adapter.foam import symmetry
 from adapter.foam.bodymesh import body_check, refuse_if_bad
 from adapter.foam.case import Case, parallel_settings
 from adapter.foam.dictionaries import set_decomposition
@@ -47,11 +48,15 @@ def mesh_case(case_dir, *, ranks: int | None = None, parallel: bool | None = Non
         snappy_on_ranks(case, on_ranks, settings["launcher"], settings["decomposition"])
     else:
         run_utility(case, ["snappyHexMesh", "-overwrite"])
+    # the layers' record from the half's snappyHexMesh fields, before a mirror doubles the mesh
+    layers = layer_record(case)
+    if record.get(symmetry.MIRROR_KEY):
+        symmetry.mirror_half_mesh(case)
     log = run_utility(case, ["checkMesh"])
     info = parse_check_mesh(log.read_text(errors="replace"))
     info["mesh_s"] = round(time.perf_counter() - t0, 2)
     info["meshed_on_ranks"] = on_ranks
-    info.update(layer_record(case))
+    info.update(layers)
     if not info.get("whale_faces"):
         raise MeshError(f"the mesh misses the body: snappyHexMesh made no whale patch; see "
                         f"{case / 'log.snappyHexMesh'} ({no_patch_hint(held.reload())})")

@@ -9,6 +9,11 @@ blockMesh box starts at y = 0, where a ``symmetryPlane`` patch named :data:`PATC
 that side of ``sides`` in the mesh and in every field of ``0.orig`` (U, p, k, omega, nut,
 pointDisplacement: its points keep to the plane, the whale's points on it included, as the
 motion's ``constrainDisplacement`` applies the plane's constraint). ``"off"``: the full domain.
+``"mirror"``: the full domain on a mirror-symmetric mesh: the half is meshed as for "auto",
+then OpenFOAM's ``mirrorMesh`` adds its mirror image and the plane's faces become inner faces
+(:func:`mirror_half_mesh`), so that the mesh does not break the mirror where snappyHexMesh's
+full-domain mesh does (its two halves differ by a few dozen cells); the fields are the full
+domain's and the loads the whole body's as they are.
 
 The loads of a half are made the whole body's where they are read (:func:`whole_body`): the
 forces along x and z, the power and the moment about y doubled; the sideways force and the
@@ -33,6 +38,8 @@ MIRROR_TOLERANCE = 1e-6
 FIELDS = ("U", "p", "k", "omega", "nut", "pointDisplacement")
 #: the record key (adapter-case.json): True for a half-domain case
 RECORD_KEY = SYMMETRY_PLANE
+#: the record key: True for a full-domain case meshed as a half and its mirror image
+MIRROR_KEY = "mirror_mesh"
 
 
 def is_mirror_symmetric(points, length: float, tolerance: float = MIRROR_TOLERANCE) -> bool:
@@ -62,9 +69,23 @@ def motion_keeps_the_mirror(scene) -> bool:
 
 def use_half_domain(scene, surface) -> bool:
     """``case.symmetry`` "auto" with a mirror-symmetric body and motion: True."""
-    if scene.case.symmetry == "off" or not motion_keeps_the_mirror(scene):
+    if scene.case.symmetry != "auto" or not motion_keeps_the_mirror(scene):
         return False
     return is_mirror_symmetric(surface.points, surface.length)
+
+
+def use_mirror_mesh(scene, surface) -> bool:
+    """``case.symmetry`` "mirror": True, and a body or motion that is not mirror-symmetric is
+    refused (:class:`~adapter.errors.SceneError`)."""
+    if scene.case.symmetry != "mirror":
+        return False
+    if not (motion_keeps_the_mirror(scene)
+            and is_mirror_symmetric(surface.points, surface.length)):
+        from adapter.errors import SceneError
+
+        raise SceneError('case.symmetry = "mirror" needs a whale and a motion that are '
+                         'mirror-symmetric about y = 0; this scene\'s are not: use "off"')
+    return True
 
 
 def half_box(domain_min, domain_max, cells, cell_size) -> tuple:
@@ -76,9 +97,10 @@ def half_box(domain_min, domain_max, cells, cell_size) -> tuple:
     return lo, hi, (cells[0], ny, cells[2])
 
 
-def write_half_domain(case: Path) -> None:
+def write_half_domain(case: Path, fields: bool = True) -> None:
     """The :data:`PATCH` plane at the blockMesh box's ymin face (the box itself written from
-    :func:`half_box`'s corners), and in every field of ``0.orig``."""
+    :func:`half_box`'s corners), and in every field of ``0.orig`` unless not ``fields`` (a
+    mirrored mesh's)."""
     from adapter.foam.dictionaries import parsed_dict
 
     d = parsed_dict(case / "system" / "blockMeshDict")
@@ -88,10 +110,54 @@ def write_half_domain(case: Path) -> None:
     sides["faces"] = [f for f in sides["faces"] if [str(v) for v in f] != ["0", "1", "5", "4"]]
     boundary += [PATCH, {"type": "symmetryPlane", "faces": [[0, 1, 5, 4]]}]
     d.writeFile()
-    for name in FIELDS:
+    for name in FIELDS if fields else ():
         f = parsed_dict(case / "0.orig" / name)
         f["boundaryField"][PATCH] = {"type": "symmetryPlane"}
         f.writeFile()
+
+
+MIRROR_MESH_DICT = """FoamFile
+{
+    version 2.0; format ascii; class dictionary; object mirrorMeshDict;
+}
+planeType       pointAndNormal;
+pointAndNormalDict { point (0 0 0); normal (0 -1 0); }
+planeTolerance  1e-6;
+"""
+
+
+#: the fields snappyHexMesh's layer stage writes into 0/
+LAYER_FIELDS = ("nSurfaceLayers", "thickness", "thicknessFraction")
+
+
+def mirror_half_mesh(case: Path) -> None:
+    """``constant/polyMesh`` (the half y >= 0 with the :data:`PATCH` plane) made whole by its
+    mirror image (``mirrorMesh -overwrite``): the plane's faces become inner faces and the
+    plane, left empty, is taken out of the boundary, so that the mesh's patches are the full
+    domain's; snappyHexMesh's layer fields (:data:`LAYER_FIELDS`, the half's) are removed.
+    Raises :class:`~adapter.errors.MeshError` when faces stay on the plane."""
+    import re
+
+    from adapter.errors import MeshError
+    from adapter.foam.foamascii import read_boundary
+    from adapter.foam.tools import run_utility
+
+    (case / "system" / "mirrorMeshDict").write_text(MIRROR_MESH_DICT)
+    run_utility(case, ["mirrorMesh", "-overwrite"])
+    # snappyHexMesh's layer fields are the half's: mirrorMesh maps no field
+    for name in LAYER_FIELDS:
+        (case / "0" / name).unlink(missing_ok=True)
+    path = case / "constant" / "polyMesh" / "boundary"
+    patches = read_boundary(path)
+    if patches[PATCH]["nFaces"] != 0:
+        raise MeshError(f"{case}: mirrorMesh left {patches[PATCH]['nFaces']} faces on the "
+                        f"plane y = 0 (see {case / 'log.mirrorMesh'})")
+    text = path.read_text()
+    text, gone = re.subn(rf"\n\s*{PATCH}\s*\{{[^{{}}]*\}}", "", text)
+    text, counted = re.subn(rf"^{len(patches)}\s*$", str(len(patches) - 1), text, count=1,
+                            flags=re.M)
+    assert gone == 1 and counted == 1, path
+    path.write_text(text)
 
 
 def is_half(case) -> bool:
