@@ -27,7 +27,6 @@ from pathlib import Path
 
 import numpy as np
 
-from adapter.errors import CaseError
 from adapter.validation.suite import CaseResult, Check
 
 RADIUS_M = 1.0
@@ -190,19 +189,14 @@ def run(out_dir, *, ranks: int = 1, quick: bool = False) -> CaseResult:
 
 
 def run_variant(scene, scene_file: Path, case: Path, ddt: str, ranks: int) -> None:
-    """Prepare, mesh and run one case with the time scheme ``ddt`` (the template's
-    fvSchemes otherwise)."""
+    """Prepare, mesh and run one case with the time scheme ``ddt`` (``case.time_scheme``)."""
     from adapter.foam.case import prepare_case
     from adapter.foam.mesh import mesh_case
     from adapter.foam.run import run_case
 
     if not (case / "system" / "controlDict").exists():
-        prepare_case(scene, case, ranks=ranks, scene_file=scene_file)
-        schemes = case / "system" / "fvSchemes"
-        text = schemes.read_text()
-        if "default         Euler;" not in text:
-            raise CaseError(f"{schemes} has no 'default Euler;' ddt scheme to replace")
-        schemes.write_text(text.replace("default         Euler;", f"default         {ddt};"))
+        prepare_case(scene.replace(case={"time_scheme": ddt}), case, ranks=ranks,
+                     scene_file=scene_file)
     if not (case / "constant" / "polyMesh" / "owner").exists():
         mesh_case(case, ranks=ranks)
     run_case(case, ranks=ranks, progress=False)
