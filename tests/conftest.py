@@ -78,3 +78,11 @@ def paper_animator(smoke_scene, smoke_surface):
 
 #: tests that run pimpleFoam with the plugin library on a case they build with blockMesh
 NEEDS_FOAM_AND_PLUGIN = [pytest.mark.openfoam, pytest.mark.plugin, pytest.mark.slow]
+
+
+def needs_foam_and_plugin(test):
+    """A test function with the marks of :data:`NEEDS_FOAM_AND_PLUGIN` (a decorator, for a
+    module whose other tests need neither)."""
+    for mark in NEEDS_FOAM_AND_PLUGIN:
+        test = mark(test)
+    return test

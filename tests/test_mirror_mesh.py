@@ -17,7 +17,7 @@ from adapter.foam import run as R
 from adapter.foam import symmetry as Y
 from adapter.foam.foamascii import mesh_file, read_boundary, read_points
 
-from .conftest import NEEDS_FOAM_AND_PLUGIN
+from .conftest import needs_foam_and_plugin
 
 
 def _unmatched_mirror_points(case) -> int:
@@ -40,13 +40,8 @@ def _mesh(scene, case):
     return M.mesh_case(case)
 
 
-def _marks(test):
-    for mark in NEEDS_FOAM_AND_PLUGIN:
-        test = mark(test)
-    return test
 
-
-@_marks
+@needs_foam_and_plugin
 def test_the_mirrored_mesh_is_its_own_mirror_image_and_feels_no_side_force(tmp_path, smoke_scene):
     mirror = tmp_path / "mirror"
     info = _mesh(smoke_scene.replace(case={"symmetry": "mirror"}), mirror)

@@ -25,14 +25,8 @@ from adapter.foam.parallel import (
 )
 from adapter.scene import Scene, load_scene
 
-from .conftest import NEEDS_FOAM_AND_PLUGIN
+from .conftest import needs_foam_and_plugin
 
-
-def foam(test):
-    """The marks of the tests that run OpenFOAM with the plugin (tests/conftest.py)."""
-    for mark in NEEDS_FOAM_AND_PLUGIN:
-        test = mark(test)
-    return test
 
 def _decomposition(case):
     d = D.parsed_dict(case / "system" / "decomposeParDict")
@@ -151,7 +145,7 @@ def serial_mesh(tmp_path_factory, smoke_scene, smoke_surface):
     return case
 
 
-@foam
+@needs_foam_and_plugin
 @pytest.mark.slow
 def test_two_ranks_give_the_serial_answer(tmp_path, serial_mesh):
     """The coupled smoke case on 1 and on 2 ranks (one link, the master gathering): the
@@ -175,7 +169,7 @@ def test_two_ranks_give_the_serial_answer(tmp_path, serial_mesh):
             pytest.approx([0.0] * len(l1[key]), abs=1e-4 * scale), key
 
 
-@foam
+@needs_foam_and_plugin
 def test_parallel_meshing_gives_the_serial_mesh_within_a_few_percent(
         tmp_path, smoke_scene, smoke_surface, serial_mesh):
     case = tmp_path / "case"
@@ -196,7 +190,7 @@ def test_parallel_meshing_gives_the_serial_mesh_within_a_few_percent(
     assert F.processor_dirs(case) == []                 # the run decomposes the final mesh
 
 
-@foam
+@needs_foam_and_plugin
 def test_a_launcher_and_a_user_decomposition_run_without_reconstruction(tmp_path, serial_mesh):
     case = tmp_path / "case"
     shutil.copytree(serial_mesh, case)

@@ -48,17 +48,22 @@ def _control(case: Path, **entries) -> None:
     path.write_text(text)
 
 
-@pytest.fixture(scope="module")
-def reference(tmp_path_factory):
-    """The smoke case, written at every one of its 8 steps, run without a break."""
-    case = tmp_path_factory.mktemp("restart") / "reference"
-    C.prepare_case(load_scene(preset="smoke"), case)
+def _run_every_step_written(scene, case: Path) -> tuple:
+    """``scene``'s case run without a break, written at every one of its 8 steps."""
+    C.prepare_case(scene, case)
     _control(case, writeInterval=1)
     M.mesh_case(case)
     R.run_case(case, progress=False)
     times = [d.name for _, d in F.time_dirs(case)]
     assert len(times) == 9
     return case, times
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """The smoke case, written at every one of its 8 steps, run without a break."""
+    return _run_every_step_written(load_scene(preset="smoke"),
+                                   tmp_path_factory.mktemp("restart") / "reference")
 
 
 def _differences(case: Path, reference: Path, time: str) -> dict:
@@ -106,14 +111,9 @@ def test_a_restart_from_a_users_start_time_repeats_the_run(tmp_path, reference, 
 @pytest.fixture(scope="module")
 def reference_backward(tmp_path_factory):
     """The smoke case with the second-order ``backward`` time scheme, written every step."""
-    case = tmp_path_factory.mktemp("restart-backward") / "reference"
-    C.prepare_case(load_scene(preset="smoke").replace(case={"time_scheme": "backward"}), case)
-    _control(case, writeInterval=1)
-    M.mesh_case(case)
-    R.run_case(case, progress=False)
-    times = [d.name for _, d in F.time_dirs(case)]
-    assert len(times) == 9
-    return case, times
+    return _run_every_step_written(
+        load_scene(preset="smoke").replace(case={"time_scheme": "backward"}),
+        tmp_path_factory.mktemp("restart-backward") / "reference")
 
 
 def test_a_backward_restart_from_an_odd_step_repeats_the_run(tmp_path, reference_backward):

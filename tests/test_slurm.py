@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import NEEDS_FOAM_AND_PLUGIN
+from .conftest import needs_foam_and_plugin
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "cluster.md"
@@ -99,13 +99,8 @@ def _submit_and_wait(script, workdir, env):
     pytest.fail(f"job {job} did not end within {JOB_LIMIT_S} s")
 
 
-def _foam(test):
-    for mark in NEEDS_FOAM_AND_PLUGIN:
-        test = mark(test)
-    return test
 
-
-@_foam
+@needs_foam_and_plugin
 def test_the_docs_batch_script_runs_the_smoke_case_as_run_directly(tmp_path, slurm_cluster):
     venv = Path(sys.prefix)
     if not (venv / "bin" / "activate").is_file():

@@ -17,7 +17,7 @@ from adapter.foam.foamascii import mesh_file, read_boundary, read_faces, read_po
 from adapter.foam.summary import read_forces
 from adapter.foamfiles import time_dirs
 
-from .conftest import NEEDS_FOAM_AND_PLUGIN
+from .conftest import needs_foam_and_plugin
 
 
 def _read(path):
@@ -125,14 +125,8 @@ def _plane_points(case: Path):
     return sorted(plane), sorted(plane & of("whale"))
 
 
-def _foam(test):
-    """The marks of a test that runs OpenFOAM with the plugin (tests/conftest.py)."""
-    for mark in NEEDS_FOAM_AND_PLUGIN:
-        test = mark(test)
-    return test
 
-
-@_foam
+@needs_foam_and_plugin
 def test_half_against_full_on_the_same_grid(tmp_path, smoke_scene):
     """The coupled smoke whale at refinement [2, 3] (the smoke's [1, 2] snaps too coarsely at
     the plane: a 62-face half loses 3.7 % of its volume, and so of its pressure force), half
