@@ -230,3 +230,29 @@ def test_a_pitched_whale_turns_about_its_centre():
                                       0.5 + 7 * math.sin(math.radians(2))])
     assert moved[2] == pytest.approx(rest[2])
     assert np.linalg.norm(moved[1] - moved[2]) == pytest.approx(np.linalg.norm(rest[1] - rest[2]))
+
+
+@pytest.mark.parametrize("backward", [False, True])
+def test_the_body_force_is_the_time_schemes_derivative_of_the_velocities_sent(backward):
+    """The flow accelerates its far field by the scheme's derivative of the frame velocities
+    it is sent (Euler: (u_n - u_(n-1)) / dt; backward, a constant step: (3 u_n - 4 u_(n-1) +
+    u_(n-2)) / (2 dt)); the body force it is sent must be the same, or the difference pushes
+    on the displaced water."""
+    frame = SurgeFrame(1.3, Inertia(5000.0, 400.0, 0.0), Schedule(0.0, 1.0), backward=backward)
+    frame.answer(0.0, SimpleNamespace(pressure_force=NAN3, viscous_force=NAN3))
+    sent, t = [], 0.0
+    force = None
+    for _ in range(200):
+        t += DT
+        state = frame.answer(t, request(*force) if force else
+                             SimpleNamespace(pressure_force=NAN3, viscous_force=NAN3))
+        sent.append((state.velocity[0], state.acceleration[0]))
+        # a drag toward 1.7 m/s and a swing: the acceleration changes every step
+        force = (2000.0 * (state.velocity[0] - 1.7) + 3000.0 * math.sin(2 * math.pi * t), 0.0)
+    u, body = np.array(sent).T
+    if backward:
+        derivative = (3 * u[2:] - 4 * u[1:-1] + u[:-2]) / (2 * DT)
+    else:
+        derivative = (u[2:] - u[1:-1]) / DT
+    assert np.ptp(body) > 1.0                                   # it does change
+    assert np.abs(body[2:] - derivative).max() < 1e-9 * np.abs(body).max() + 1e-9

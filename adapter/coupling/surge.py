@@ -132,18 +132,28 @@ class SurgeFrame:
         lighter mass acts (0 after), the pitch (rad); rows after a restored time are dropped
         at a restore.
     pitch : the pitch recoil (:class:`PitchRecoil`), None: none.
+    backward : the flow's time scheme is backward (``case.time_scheme``): the body force the
+        flow gets is backward's derivative of the frame velocities it is sent,
+        ``(3 a_n - a_(n-1)) / 2`` for ``u_(n+1) = u_n + a_n dt``, not ``a_n`` (Euler's), so
+        that the far field's acceleration and the body force agree (see
+        :meth:`_body_acceleration`).
     """
 
     def __init__(self, speed: float, inertia: Inertia, schedule: Schedule, heave: bool = False,
                  force_scale: float = 1.0, log_path: Path | None = None,
-                 pitch: PitchRecoil | None = None):
+                 pitch: PitchRecoil | None = None, backward: bool = False):
         self.inertia = inertia
+        self.backward = bool(backward)
         self.schedule = schedule
         self.axes = (SURGE, HEAVE) if heave else (SURGE,)
         self.force_scale = float(force_scale)
         self.t: float | None = None
         self.velocity = np.array([float(speed), 0.0, 0.0])
         self.acceleration = np.zeros(3)
+        #: the body force per unit mass the flow got for the last served step, and the
+        #: acceleration of the velocity step before this one (backward's older level)
+        self.body_acceleration = np.zeros(3)
+        self.previous_acceleration = np.zeros(3)
         self._means: deque = deque()   # (t, G along the free axes) over the last period
         #: when the true mass took over (None: not yet)
         self.true_from: float | None = None
@@ -160,8 +170,10 @@ class SurgeFrame:
             return self._state_now()
         force = (np.asarray(request.pressure_force, float)
                  + np.asarray(request.viscous_force, float)) * self.force_scale
+        self.previous_acceleration = self.acceleration.copy()
         if np.all(np.isfinite(force[list(self.axes)])):
             self.acceleration = self._acceleration(force, self.t)
+        self.body_acceleration = self._body_acceleration()
         if self.pitch is not None:
             moment = (np.asarray(request.pressure_moment, float)
                       + np.asarray(request.viscous_moment, float)) * self.force_scale
@@ -173,10 +185,21 @@ class SurgeFrame:
         self._log(force)
         return self._state_now()
 
+    def _body_acceleration(self) -> np.ndarray:
+        """The body force per unit mass for the step the velocity was just advanced over: the
+        time scheme's derivative of the frame velocity, Euler's ``a_n`` or backward's
+        ``(3 u_(n+1) - 4 u_n + u_(n-1)) / (2 dt) = (3 a_n - a_(n-1)) / 2`` (a constant step).
+        With ``a_n`` under backward the far field would accelerate by one and the body force
+        push by the other; on a neutrally buoyant whale the difference's pressure force, the
+        displaced mass times ``(a_n - a_(n-1)) / 2``, feeds a two-step swing that grows."""
+        if not self.backward:
+            return self.acceleration.copy()
+        return 1.5 * self.acceleration - 0.5 * self.previous_acceleration
+
     def _state_now(self):
         if self.pitch is None:
-            return FrameState(self.velocity.copy(), self.acceleration.copy())
-        return FrameState(self.velocity.copy(), self.acceleration.copy(), self.pitch.theta,
+            return FrameState(self.velocity.copy(), self.body_acceleration.copy())
+        return FrameState(self.velocity.copy(), self.body_acceleration.copy(), self.pitch.theta,
                           self.pitch.centre)
 
     def _log(self, force: np.ndarray) -> None:
@@ -197,6 +220,8 @@ class SurgeFrame:
     def state(self) -> dict:
         return {"t": self.t, "true_from": self.true_from, "velocity": self.velocity.tolist(),
                 "acceleration": self.acceleration.tolist(),
+                "body_acceleration": self.body_acceleration.tolist(),
+                "previous_acceleration": self.previous_acceleration.tolist(),
                 "means": [[t, list(g)] for t, g in self._means],
                 **(self.pitch.state() if self.pitch is not None else {})}
 
@@ -209,6 +234,11 @@ class SurgeFrame:
         self.true_from = state["true_from"]
         self.velocity = np.array(state["velocity"], float)
         self.acceleration = np.array(state["acceleration"], float)
+        # a state saved before the keys existed was Euler's: the body force was the acceleration
+        self.body_acceleration = np.array(state.get("body_acceleration", self.acceleration),
+                                          float)
+        self.previous_acceleration = np.array(
+            state.get("previous_acceleration", self.acceleration), float)
         self._means.clear()
         self._means.extend((t, np.array(g, float)) for t, g in state["means"])
         if self.pitch is not None:
@@ -222,7 +252,7 @@ class SurgeFrame:
         axes = list(self.axes)
         total = np.array([self.inertia.mass_kg + self.inertia.added(a) for a in axes])
         added = np.array([self.inertia.added(a) for a in axes])
-        rest = force[axes] - added * self.acceleration[axes]          # G
+        rest = force[axes] - added * self.body_acceleration[axes]     # G
         window = self.schedule.period_s
         self._means.append((t_force, rest))
         while self._means and self._means[0][0] <= t_force - window:
@@ -321,7 +351,8 @@ def frame_of(record: dict, log_path: Path | None = None) -> SurgeFrame | None:
                       heave=bool(free["heave"]),
                       force_scale=2.0 if record.get(SYMMETRY_PLANE) else 1.0,
                       log_path=log_path,
-                      pitch=pitch_of(record) if free.get("pitch") else None)
+                      pitch=pitch_of(record) if free.get("pitch") else None,
+                      backward=record.get("time_scheme", "Euler") == "backward")
 
 
 def pitch_of(record: dict) -> PitchRecoil:

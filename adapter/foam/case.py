@@ -151,6 +151,8 @@ def _case_record(scene, surface, params: CaseParameters, scene_file, static_whal
         "body": body_dimensions(surface, tail_base_s),
         "gliding": scene.case.gliding,
         "periodic_tolerance": scene.case.periodic_tolerance,
+        # the free whale's frame follows the flow's time scheme (adapter/coupling/surge.py)
+        "time_scheme": scene.case.time_scheme,
         "preset": scene.name,
         "static_whale": static_whale,
         symmetry.RECORD_KEY: half,
