@@ -136,7 +136,7 @@ class SurgeFrame:
         flow gets is backward's derivative of the frame velocities it is sent,
         ``(3 a_n - a_(n-1)) / 2`` for ``u_(n+1) = u_n + a_n dt``, not ``a_n`` (Euler's), so
         that the far field's acceleration and the body force agree (see
-        :meth:`_body_acceleration`).
+        :attr:`body_acceleration`).
     """
 
     def __init__(self, speed: float, inertia: Inertia, schedule: Schedule, heave: bool = False,
@@ -150,9 +150,7 @@ class SurgeFrame:
         self.t: float | None = None
         self.velocity = np.array([float(speed), 0.0, 0.0])
         self.acceleration = np.zeros(3)
-        #: the body force per unit mass the flow got for the last served step, and the
-        #: acceleration of the velocity step before this one (backward's older level)
-        self.body_acceleration = np.zeros(3)
+        #: the acceleration of the velocity step before this one (backward's older level)
         self.previous_acceleration = np.zeros(3)
         self._means: deque = deque()   # (t, G along the free axes) over the last period
         #: when the true mass took over (None: not yet)
@@ -170,10 +168,9 @@ class SurgeFrame:
             return self._state_now()
         force = (np.asarray(request.pressure_force, float)
                  + np.asarray(request.viscous_force, float)) * self.force_scale
-        self.previous_acceleration = self.acceleration.copy()
-        if np.all(np.isfinite(force[list(self.axes)])):
-            self.acceleration = self._acceleration(force, self.t)
-        self.body_acceleration = self._body_acceleration()
+        new = (self._acceleration(force, self.t) if np.all(np.isfinite(force[list(self.axes)]))
+               else self.acceleration.copy())
+        self.previous_acceleration, self.acceleration = self.acceleration, new
         if self.pitch is not None:
             moment = (np.asarray(request.pressure_moment, float)
                       + np.asarray(request.viscous_moment, float)) * self.force_scale
@@ -185,8 +182,9 @@ class SurgeFrame:
         self._log(force)
         return self._state_now()
 
-    def _body_acceleration(self) -> np.ndarray:
-        """The body force per unit mass for the step the velocity was just advanced over: the
+    @property
+    def body_acceleration(self) -> np.ndarray:
+        """The body force per unit mass for the step the velocity was last advanced over: the
         time scheme's derivative of the frame velocity, Euler's ``a_n`` or backward's
         ``(3 u_(n+1) - 4 u_n + u_(n-1)) / (2 dt) = (3 a_n - a_(n-1)) / 2`` (a constant step).
         With ``a_n`` under backward the far field would accelerate by one and the body force
@@ -220,7 +218,6 @@ class SurgeFrame:
     def state(self) -> dict:
         return {"t": self.t, "true_from": self.true_from, "velocity": self.velocity.tolist(),
                 "acceleration": self.acceleration.tolist(),
-                "body_acceleration": self.body_acceleration.tolist(),
                 "previous_acceleration": self.previous_acceleration.tolist(),
                 "means": [[t, list(g)] for t, g in self._means],
                 **(self.pitch.state() if self.pitch is not None else {})}
@@ -234,9 +231,7 @@ class SurgeFrame:
         self.true_from = state["true_from"]
         self.velocity = np.array(state["velocity"], float)
         self.acceleration = np.array(state["acceleration"], float)
-        # a state saved before the keys existed was Euler's: the body force was the acceleration
-        self.body_acceleration = np.array(state.get("body_acceleration", self.acceleration),
-                                          float)
+        # a state saved before the key existed was Euler's: the body force was the acceleration
         self.previous_acceleration = np.array(
             state.get("previous_acceleration", self.acceleration), float)
         self._means.clear()

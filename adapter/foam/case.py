@@ -104,15 +104,17 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     decomposition = choose_decomposition(case, scene.case.decomposition, scene.base_dir)
     half = symmetry.use_half_domain(scene, surface)
     mirror = symmetry.use_mirror_mesh(scene, surface)
-    if half or mirror:
+    meshed_half = half or mirror
+    if meshed_half:
         lo, hi, cells = symmetry.half_box(params.domain_min, params.domain_max, params.cells,
                                           params.cell_size)
         params = replace(params, domain_min=lo, domain_max=hi, cells=cells)
     write_dictionaries(case, scene, params, static_whale, decomposition)
-    if half or mirror:
+    if meshed_half:
         symmetry.write_half_domain(case, fields=half)
-    record = _case_record(scene, surface, params, scene_file, static_whale, half, decomposition)
-    Case(case).save({**record, symmetry.MIRROR_KEY: mirror})
+    Case(case).save({**_case_record(scene, surface, params, scene_file, static_whale, half,
+                                    decomposition),
+                     symmetry.MIRROR_KEY: mirror})
     return params
 
 
