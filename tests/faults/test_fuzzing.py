@@ -152,22 +152,25 @@ def test_fuzzed_frames_never_crash_or_lie(case, serve, animator, points, truth):
     srv = serve(case, keep_serving=True)      # one link per case: link after link
     keeper_t = [0.01]
 
-    def keeper_checks(t):
+    def hello_when_free(n_points):
         # a fuzzed link that said HELLO holds the case until the server has read its end,
         # which can wait for a work-ahead begun for that link (its compiled kernels hold the
-        # GIL): the keeper met ERROR 7 right after a batch (CI, 2026-12-02; for over 5 s beside
-        # a 2-rank flow run, 2026-12-03), so it asks again for up to 30 s; any other error, or
-        # BUSY past that, fails the test
+        # GIL): a well-behaved client met ERROR 7 right after a batch (CI, 2026-12-02; for over
+        # 5 s beside a 2-rank flow run, 2026-12-03), so it asks again for up to 30 s; any other
+        # error, or BUSY past that, fails the test
         deadline = time.monotonic() + 30.0
         while True:
-            keeper = Client(case)
+            client = Client(case)
             try:
-                keeper.hello(points[:20], n_ranks=2)
-                break
+                client.hello(points[:n_points], n_ranks=2)
+                return client
             except ServerSaid as said:
                 if said.code != ErrorCode.BUSY or time.monotonic() > deadline:
                     raise
                 time.sleep(0.05)
+
+    def keeper_checks(t):
+        keeper = hello_when_free(20)
         assert np.array_equal(keeper.displacement(t), truth(t)[:20])
         keeper.bye()
 
@@ -228,8 +231,7 @@ def test_fuzzed_frames_never_crash_or_lie(case, serve, animator, points, truth):
           f"checked")
     assert count[0] >= FUZZ_CASES and checked[0] >= FUZZ_CASES // 20
     # after the fuzzing: a fresh link gets exactly the right motion
-    late = Client(case)
-    late.hello(points, n_ranks=2)
+    late = hello_when_free(len(points))
     for t in (keeper_t[-1] + 0.01, keeper_t[-1] + 0.02):
         assert np.array_equal(late.displacement(t), truth(t))
     late.bye()
