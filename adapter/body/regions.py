@@ -69,8 +69,9 @@ def flipper_triangles(points, triangles, landmarks, origin, length, bins: int = 
     b_c = slice_of(centroid[:, 0])
     dz = centroid[:, 2] - zc[b_c]
     height = np.where(dz >= 0, up[b_c], down[b_c])
-    outside = ((np.abs(centroid[:, 1] - y0) / np.maximum(half[b_c], 1e-300)) ** 2
-               + (dz / np.maximum(height, 1e-300)) ** 2) > FLIPPER_MARGIN ** 2
+    # hypot: a section of no height (the floor's 1e-300) gives a huge ratio, not an overflow
+    outside = np.hypot(np.abs(centroid[:, 1] - y0) / np.maximum(half[b_c], 1e-300),
+                       dz / np.maximum(height, 1e-300)) > FLIPPER_MARGIN
     out = np.zeros(len(triangles), bool)
     for name in ("flipper_left", "flipper_right"):
         tip = p[landmarks[name]]
