@@ -1,7 +1,7 @@
 # whale-adapter -- every target installs what it needs first, idempotently (see README.md).
 #
 #   make run-case   the main job: pimpleFoam coupled to the step-server (SCENE, CASE, NP)
-#   make study      the flow study: three meshes (GCI), time step, self-propelled speed (SCENE, STUDY, NP)
+#   make study      the flow study: three meshes (GCI) and the time step (SCENE, STUDY, NP)
 #   make test       lint + the whole test suite, OpenFOAM and ParaView included
 #   make lint       ruff, then mypy on adapter/ (make typecheck: mypy alone)
 #   make test-fast  lint + the tests that need no OpenFOAM, ParaView, chromium or apt (under 90 s)
@@ -104,7 +104,7 @@ calibrate: venv
 run-case: venv system openfoam plugin
 	$(BIN)/whale-adapter run-case $(scene_args) --case $(CASE) $(if $(NP),--np $(NP))
 
-# hours on 2 cores (docs/case.md, "The flow study"); run again to continue a stopped study
+# about half an hour on 2 cores for the default (docs/case.md, "The flow study"); run again to continue a stopped study
 study: venv system openfoam plugin
 	$(BIN)/whale-adapter study $(scene_args) --out $(STUDY) $(if $(NP),--np $(NP))
 

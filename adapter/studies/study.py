@@ -61,6 +61,8 @@ CHART = "accuracy-vs-cost.png"
 DEFAULT_RATIO = 1.3
 DEFAULT_SPEEDS = (0.85, 1.0, 1.15, 1.3, 1.45)
 PARTS = ("meshes", "dt", "speeds")
+#: what ``whale-adapter study`` (and ``make study``) runs unless told
+CLI_PARTS = ("meshes", "dt")
 #: the snappyHexMesh layer fields a copied mesh takes along (0/)
 _LAYER_FIELDS = ("nSurfaceLayers", "thickness", "thicknessFraction")
 
@@ -314,13 +316,14 @@ def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "study", help="the flow study: three meshes (GCI), time step, self-propelled speed",
+        "study", help="the flow study: three meshes (GCI), the time step, the speeds if asked",
         description="Run the scene's gliding + swimming pair on three systematically refined "
         "meshes (one refinement ratio on every cell size; Richardson extrapolation and "
         "Roache's GCI for gliding drag, mean swimming Fx and mean power), on the middle mesh "
-        "with the time step halved, and at several flow speeds (the self-propelled speed, "
-        "mean Fx = 0). Writes <out>/study.json and <out>/accuracy-vs-cost.png; run it again "
-        "to continue a stopped study (docs/case.md, 'The flow study').")
+        "with the time step halved, and with --parts ...,speeds at several flow speeds (the "
+        "self-propelled speed, mean Fx = 0). Writes <out>/study.json and "
+        "<out>/accuracy-vs-cost.png; run it again to continue a stopped study (docs/case.md, "
+        "'The flow study').")
     p.add_argument("--scene", type=in_file, help="scene TOML file (default: built-in default)")
     p.add_argument("--preset", help="built-in preset: default, smoke, fine")
     p.add_argument("--out", type=out_folder,
@@ -328,14 +331,15 @@ def register(subparsers) -> None:
                    "as make study SCENE=my.toml gives runs/study-my; else runs/study-<preset>)")
     p.add_argument("--ratio", type=number(float, 1.3), default=DEFAULT_RATIO,
                    help=f"refinement ratio between the meshes, >= 1.3 (default {DEFAULT_RATIO})")
-    p.add_argument("--finest", choices=FINEST, default="scene",
-                   help="which mesh is the finest: the scene's own (default; meshes 2 and 3 "
-                   "coarser) or one refined beyond it (mesh 2 the scene's)")
+    p.add_argument("--finest", choices=FINEST, default="refined",
+                   help="which mesh is the finest: one refined beyond the scene's (default; "
+                   "mesh 2 the scene's) or the scene's own (meshes 2 and 3 coarser)")
     p.add_argument("--speeds", default=",".join(f"{f:g}" for f in DEFAULT_SPEEDS),
                    help="flow speeds as multiples of the scene's, comma-separated (default "
                    "%(default)s)")
-    p.add_argument("--parts", default=",".join(PARTS),
-                   help="which parts to run: meshes, dt, speeds (default all)")
+    p.add_argument("--parts", default=",".join(CLI_PARTS),
+                   help="which parts to run: meshes, dt, speeds (default %(default)s: run-case's "
+                   "free stage gives the self-propelled speed, speeds checks it)")
     p.add_argument("--np", type=ranks_option, default=None, dest="ranks",
                    help="MPI ranks per case, or auto: the machine's cores (default: the "
                         "scene's case.ranks; 0 there: auto)")
