@@ -70,7 +70,7 @@ def test_parameters_domain_and_cells():
 
 
 def test_parameters_time_step_and_writes():
-    scene = load_scene(preset="default")
+    scene = load_scene(preset="default").replace(case={"dt_s": 0.0})   # the automatic step
     p = P.case_parameters(scene, [0, -2, -2], [15, 2, 2])
     write_interval = scene.period_s / scene.case.writes_per_cycle
     # Courant-based step, rounded down to a whole fraction of the write interval, then to a

@@ -8,6 +8,7 @@ from PyFoam.RunDictionary.ParsedParameterFile import ParsedParameterFile
 
 from adapter.errors import SceneError
 from adapter.foam import case as C
+from adapter.scene import load_scene
 
 
 def test_outer_correctors_reach_fvsolution_and_the_mesh_moves_once_a_step(tmp_path, smoke_scene,
@@ -19,7 +20,8 @@ def test_outer_correctors_reach_fvsolution_and_the_mesh_moves_once_a_step(tmp_pa
         pimple = ParsedParameterFile(str(case / "system" / "fvSolution"))["PIMPLE"]
         assert int(pimple["nOuterCorrectors"]) == n
         assert pimple["moveMeshOuterCorrectors"] in (False, "no")
-    assert smoke_scene.case.outer_correctors == 1
+    assert smoke_scene.case.outer_correctors == 1          # the tests' quick numerics
+    assert load_scene(preset="default").case.outer_correctors == 2
     with pytest.raises(SceneError, match="outer_correctors"):
         smoke_scene.replace(case={"outer_correctors": 0})
 
@@ -32,5 +34,6 @@ def test_the_time_scheme_reaches_fvschemes(tmp_path, smoke_scene, smoke_surface)
         ddt = ParsedParameterFile(str(case / "system" / "fvSchemes"))["ddtSchemes"]
         assert ddt["default"] == scheme
     assert smoke_scene.case.time_scheme == "Euler"
+    assert load_scene(preset="default").case.time_scheme == "backward"
     with pytest.raises(SceneError, match="time_scheme"):
         smoke_scene.replace(case={"time_scheme": "CrankNicolson"})
