@@ -190,6 +190,8 @@ class Case:
     turbulence: str = field(default="kOmegaSST", metadata={"choices": ("kOmegaSST", "laminar")})
     #: PIMPLE's outer correctors a flow step (1: PISO-like; the mesh moves once a step)
     outer_correctors: int = field(default=1, metadata={"check": _within(1, 20)})
+    #: PIMPLE's pressure correctors within each outer corrector (fvSolution nCorrectors)
+    pressure_correctors: int = field(default=2, metadata={"check": _within(1, 20)})
     #: the flow's time scheme (fvSchemes ddtSchemes): first-order "Euler" or second-order
     #: "backward" (docs/case.md, "Time scheme")
     time_scheme: str = field(default="Euler", metadata={"choices": ("Euler", "backward")})

@@ -1,5 +1,6 @@
-"""PIMPLE's outer correctors (``case.outer_correctors``) in the case's fvSolution, with the mesh
-moved once a step, and the time scheme (``case.time_scheme``) in its fvSchemes."""
+"""PIMPLE's outer and pressure correctors (``case.outer_correctors``,
+``case.pressure_correctors``) in the case's fvSolution, with the mesh moved once a step, and the
+time scheme (``case.time_scheme``) in its fvSchemes."""
 
 from __future__ import annotations
 
@@ -24,6 +25,17 @@ def test_outer_correctors_reach_fvsolution_and_the_mesh_moves_once_a_step(tmp_pa
     assert load_scene(preset="default").case.outer_correctors == 2
     with pytest.raises(SceneError, match="outer_correctors"):
         smoke_scene.replace(case={"outer_correctors": 0})
+
+
+def test_pressure_correctors_reach_fvsolution(tmp_path, smoke_scene, smoke_surface):
+    for n in (1, 3):
+        case = tmp_path / f"case-{n}"
+        C.prepare_case(smoke_scene.replace(case={"pressure_correctors": n}), case,
+                       surface=smoke_surface)
+        pimple = ParsedParameterFile(str(case / "system" / "fvSolution"))["PIMPLE"]
+        assert int(pimple["nCorrectors"]) == n
+    with pytest.raises(SceneError, match="pressure_correctors"):
+        smoke_scene.replace(case={"pressure_correctors": 0})
 
 
 def test_the_time_scheme_reaches_fvschemes(tmp_path, smoke_scene, smoke_surface):

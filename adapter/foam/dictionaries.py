@@ -124,11 +124,12 @@ def _write_control(case: Path, scene, p: CaseParameters, static_whale: bool) -> 
 
 
 def _write_solution(case: Path, c) -> None:
-    """fvSolution: PIMPLE's outer correctors (``case.outer_correctors``); the mesh moves and
-    the step-server is asked once a step whatever their number (``moveMeshOuterCorrectors``
-    off)."""
+    """fvSolution: PIMPLE's outer correctors (``case.outer_correctors``) and the pressure
+    correctors within each (``case.pressure_correctors``); the mesh moves and the step-server
+    is asked once a step whatever their number (``moveMeshOuterCorrectors`` off)."""
     d = parsed_dict(case / "system" / "fvSolution")
     d["PIMPLE"]["nOuterCorrectors"] = c.outer_correctors
+    d["PIMPLE"]["nCorrectors"] = c.pressure_correctors
     d.writeFile()
 
 
