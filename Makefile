@@ -121,8 +121,8 @@ bench-flow: venv
 	$(BIN)/python scripts/bench_flow.py $(if $(CASE),--case $(CASE))
 
 # make bench-cases: the scene's coupled case on 1 and 2 ranks, full and half domain, side by
-# side: wall time per stroke cycle and the coupling's share (SCENE; WRITES write intervals, 1)
-WRITES ?= 1
+# side: wall time per stroke cycle and the coupling's share (SCENE; WRITES write intervals, 2)
+WRITES ?= 2
 bench-cases: venv system openfoam plugin
 	$(BIN)/python scripts/bench_cases.py $(scene_args) --writes $(WRITES)
 
