@@ -12,13 +12,17 @@ from adapter.foam import case as C
 from adapter.scene import load_scene
 
 
+def _pimple(tmp_path, scene, surface, key: str, n: int):
+    """The PIMPLE dictionary of a case prepared with ``case.<key> = n``."""
+    case = tmp_path / f"case-{key}-{n}"
+    C.prepare_case(scene.replace(case={key: n}), case, surface=surface)
+    return ParsedParameterFile(str(case / "system" / "fvSolution"))["PIMPLE"]
+
+
 def test_outer_correctors_reach_fvsolution_and_the_mesh_moves_once_a_step(tmp_path, smoke_scene,
                                                                           smoke_surface):
     for n in (1, 3):
-        case = tmp_path / f"case-{n}"
-        C.prepare_case(smoke_scene.replace(case={"outer_correctors": n}), case,
-                       surface=smoke_surface)
-        pimple = ParsedParameterFile(str(case / "system" / "fvSolution"))["PIMPLE"]
+        pimple = _pimple(tmp_path, smoke_scene, smoke_surface, "outer_correctors", n)
         assert int(pimple["nOuterCorrectors"]) == n
         assert pimple["moveMeshOuterCorrectors"] in (False, "no")
     assert smoke_scene.case.outer_correctors == 1          # the tests' quick numerics
@@ -29,10 +33,7 @@ def test_outer_correctors_reach_fvsolution_and_the_mesh_moves_once_a_step(tmp_pa
 
 def test_pressure_correctors_reach_fvsolution(tmp_path, smoke_scene, smoke_surface):
     for n in (1, 3):
-        case = tmp_path / f"case-{n}"
-        C.prepare_case(smoke_scene.replace(case={"pressure_correctors": n}), case,
-                       surface=smoke_surface)
-        pimple = ParsedParameterFile(str(case / "system" / "fvSolution"))["PIMPLE"]
+        pimple = _pimple(tmp_path, smoke_scene, smoke_surface, "pressure_correctors", n)
         assert int(pimple["nCorrectors"]) == n
     with pytest.raises(SceneError, match="pressure_correctors"):
         smoke_scene.replace(case={"pressure_correctors": 0})
