@@ -23,6 +23,7 @@ from scipy.spatial import cKDTree
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from adapter.body.meshfile import read_stl_solids  # noqa: E402
 from adapter.foam.foamascii import (  # noqa: E402
     _body,
     _list_start,
@@ -52,23 +53,6 @@ def read_list(path) -> np.ndarray:
     return _numbers(text[start:_matching(text, start - 1)])
 
 
-def stl_solids(path) -> dict:
-    """{solid name: (n, 3) triangle centres} of an ASCII STL."""
-    out: dict = {}
-    name, tri = None, []
-    for line in open(path):
-        w = line.split()
-        if not w:
-            continue
-        if w[0] == "solid":
-            name, tri = w[1], []
-        elif w[0] == "vertex":
-            tri.append([float(x) for x in w[1:4]])
-        elif w[0] == "endsolid":
-            out[name] = np.array(tri).reshape(-1, 3, 3).mean(axis=1)
-    return out
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("case", help="a reconstructed case (run-case's <case>/gliding)")
@@ -89,7 +73,8 @@ def main(argv=None) -> int:
     q = 0.5 * args.rho * args.speed ** 2
     fx = p * sf[:, 0]          # Sf points out of the fluid, into the whale
 
-    solids = stl_solids(f"{case}/constant/triSurface/whale_regions.stl")
+    solids = {name: tri.mean(axis=1) for name, tri in
+              read_stl_solids(f"{case}/constant/triSurface/whale_regions.stl").items()}
     names = list(solids)
     label = np.concatenate([[i] * len(solids[k]) for i, k in enumerate(names)])
     region = label[cKDTree(np.vstack([solids[k] for k in names])).query(centre)[1]]
