@@ -89,6 +89,10 @@ def test_input_checks(tmp_path):
     assert R.case_layout(case) == ("Decomposed", [0.25])
     (case / "0.5").mkdir()
     assert R.case_layout(case) == ("Reconstructed", [0.5])
+    # a parallel run that reconstructed only its last time: the ranks' times are the run's
+    (case / "processor0" / "0.5").mkdir()
+    (case / "processor0" / "0.75").mkdir()
+    assert R.case_layout(case) == ("Decomposed", [0.25, 0.5, 0.75])
 
 
 def test_missing_paraview_says_how_to_install(monkeypatch):

@@ -176,6 +176,27 @@ def test_a_moving_mesh_reads_the_points_of_its_time(tiny_case):
     assert s["area_m2"] == pytest.approx(6.0)
 
 
+def test_a_parallel_run_is_read_in_its_processor_folders(tiny_case):
+    """Times only the processor folders hold (a parallel run, not reconstructed) are read
+    there: each rank's share of the patch, joined, gives the statistics of the whole."""
+    for rank, values in enumerate(([10.0, 100.0], [50.0, 50.0])):
+        proc = tiny_case / f"processor{rank}"
+        for name in ("points", "faces", "boundary"):
+            _write(proc / "constant" / "polyMesh" / name,
+                   (tiny_case / "constant" / "polyMesh" / name).read_text()
+                   if (tiny_case / "constant" / "polyMesh" / name).is_file()
+                   else gzip.decompress((tiny_case / "constant" / "polyMesh" /
+                                         f"{name}.gz").read_bytes()).decode())
+        _write(proc / "2" / "yPlus", _yplus_text(values))
+    assert Y.written_times(tiny_case) == ["1", "2"]
+    s = Y.yplus_stats(tiny_case)
+    assert s["time"] == "2" and s["faces"] == 4
+    assert s["area_m2"] == pytest.approx(6.0)
+    assert s["mean"] == pytest.approx((10 * 1 + 100 * 2 + 50 * 1 + 50 * 2) / 6)
+    # a time the case folder holds is read there
+    assert Y.yplus_stats(tiny_case, "1")["faces"] == 2
+
+
 def test_uniform_values_and_errors(tiny_case, tmp_path):
     field = tmp_path / "f"
     field.write_text(_yplus_text([1.0, 2.0]).replace("walls", "other"))

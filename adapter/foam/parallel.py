@@ -17,8 +17,9 @@ from pathlib import Path
 
 from adapter.coupling.protocol import TOKEN_ENV
 from adapter.errors import CaseError
-from adapter.foam.folders import processor_latest, serial_latest
+from adapter.foam.folders import processor_dirs, processor_latest, serial_latest
 from adapter.foam.tools import run_utility
+from adapter.foamfiles import time_dirs
 from adapter.options import count
 
 #: the launcher on this machine (one host, Open MPI, possibly more ranks than cores)
@@ -109,6 +110,18 @@ def reconstruct_new_times(case: Path) -> bool:
     if not has_unreconstructed_times(case):
         return False
     run_utility(case, ["reconstructPar", "-newTimes"])
+    return True
+
+
+def reconstruct_latest_time(case: Path) -> bool:
+    """reconstructPar of the latest time every processor folder holds, when the case folder
+    lacks it: what a stage that starts from a run's last time needs (the earlier times stay
+    in the processor folders, where ParaView and the y+ reader read them); whether it ran."""
+    latest = processor_latest(case)
+    if latest is None or latest <= serial_latest(case):
+        return False
+    name = next(d.name for t, d in time_dirs(processor_dirs(case)[0]) if t == latest)
+    run_utility(case, ["reconstructPar", "-time", name])
     return True
 
 

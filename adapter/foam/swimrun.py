@@ -34,11 +34,9 @@ from adapter.foam.dictionaries import hold_still, parsed_dict
 from adapter.foam.eta import PairEta, StopRule
 from adapter.foam.folders import asked_start, resume_time
 from adapter.foam.freerun import FREE_ROWS, run_free, steady_gliding
-from adapter.foam.parallel import reconstruct_new_times
 from adapter.foam.report import write_report
 from adapter.foam.run import run_case
 from adapter.foam.summary import finite
-from adapter.foamfiles import time_dirs
 
 GLIDING = "gliding"
 
@@ -103,7 +101,8 @@ def run_swim_and_glide(case: Path, scene_record: dict, tolerance: float, ranks=N
     summary = answer(case, glide, scene_record, drag, tolerance, s_summary, g_summary)
     if scene_record.get("free", {}).get("enabled"):
         summary["self_propelled"] = finite(run_free(
-            case, glide, drag, lambda c, rule: _run_unless_done(c, rule, {**options, "eta": None})))
+            case, glide, drag, lambda c, rule: _run_unless_done(c, rule, {**options, "eta": None}),
+            mean_fx=float(summary["swimming_cost"]["swimming_mean_fx_N"])))
         Case(case).save_summary(summary)
         write_report(case, summary, COST_ROWS)
     return summary
@@ -129,16 +128,16 @@ def _run_unless_done(case: Path, criterion, options: dict) -> dict:
 def yplus_over_run(case: Path) -> dict:
     """Area-weighted y+ on the whale at every written time that has it: the worst fraction of
     the area with y+ <= 300 (Spalding's wall function holds there) and the last time's
-    statistics (adapter/foam/yplus.py). The y+ reader reads the case folder's time folders:
-    times a parallel run left in the processor folders are reconstructed first."""
-    from adapter.foam.yplus import yplus_stats
+    statistics (adapter/foam/yplus.py, which reads a parallel run's times in its processor
+    folders: nothing is reconstructed for it)."""
+    from adapter.foam.yplus import area_stats, patch_yplus, written_times, yplus_stats
 
-    reconstruct_new_times(case)
-    per_time = [(t, yplus_stats(case, p.name)) for t, p in time_dirs(case)
-                if t > 0 and (p / "yPlus").is_file()]
-    if not per_time:
+    names = [name for name in written_times(case) if float(name) > 0]
+    if not names:
         return {}
-    last = per_time[-1][1]
+    per_time = [(name, area_stats(*patch_yplus(case, name)[:2])) for name in names[:-1]]
+    last = yplus_stats(case, names[-1])
+    per_time.append((names[-1], last))
     return {
         "times": len(per_time),
         "worst_area_le_300": min(st["area_le_300"] for _, st in per_time),

@@ -22,6 +22,7 @@ import numpy as np
 
 from adapter.errors import AdapterError, CaseError, FoamFileError
 from adapter.foam.foamascii import patch_face_areas, read_patch_field
+from adapter.foam.folders import processor_dirs
 from adapter.foamfiles import time_dirs
 
 #: the y+ limits reported as fractions of the area below them
@@ -69,12 +70,30 @@ def area_stats(values, areas) -> dict:
 
 
 def latest_time(case, field: str = "yPlus") -> str:
-    """Name of the newest time folder holding ``field``."""
-    for _, d in reversed(time_dirs(Path(case))):
-        if (d / field).is_file() or (d / f"{field}.gz").is_file():
-            return d.name
+    """Name of the newest time folder holding ``field``, in the case folder or (a parallel run
+    not reconstructed) in its processor folders."""
+    times = written_times(case, field)
+    if times:
+        return times[-1]
     raise CaseError(f"{case}: no time folder holds {field} (add the yPlus function object "
                     "to system/controlDict and run)")
+
+
+def written_times(case, field: str = "yPlus") -> list:
+    """Names of the time folders holding ``field``, oldest first: the case folder's, and the
+    times only the processor folders hold (a parallel run reads them there, unreconstructed)."""
+    case = Path(case)
+    found = {t: d.name for t, d in time_dirs(case) if _holds(d, field)}
+    procs = processor_dirs(case)
+    if procs:
+        for t, d in time_dirs(procs[0]):
+            if t not in found and _holds(d, field):
+                found[t] = d.name
+    return [found[t] for t in sorted(found)]
+
+
+def _holds(folder: Path, field: str) -> bool:
+    return (folder / field).is_file() or (folder / f"{field}.gz").is_file()
 
 
 def yplus_stats(case, time: str | None = None, patch: str = "whale") -> dict:
@@ -87,14 +106,9 @@ def yplus_stats(case, time: str | None = None, patch: str = "whale") -> dict:
     ``layer_area_coverage`` (:func:`layer_coverage`)."""
     case = Path(case)
     time = time if time is not None else latest_time(case)
-    tdir = _time_dir(case, time)
-    areas = patch_face_areas(case, patch, time)
-    yp = read_patch_field(tdir / "yPlus", patch, len(areas))
-    if yp.shape != areas.shape:
-        raise FoamFileError(f"{tdir / 'yPlus'}: {yp.size} values on {patch}, mesh has "
-                            f"{areas.size} faces")
+    yp, areas, name = patch_yplus(case, time, patch)
     out = area_stats(yp, areas)
-    out["time"] = tdir.name
+    out["time"] = name
     log = case / "log.snappyHexMesh"
     if log.is_file():
         report = parse_layer_report(log.read_text(errors="replace")).get(patch)
@@ -105,6 +119,27 @@ def yplus_stats(case, time: str | None = None, patch: str = "whale") -> dict:
     except AdapterError:
         pass
     return out
+
+
+def patch_yplus(case: Path, time: str, patch: str = "whale") -> tuple:
+    """(y+ per face, face areas, the time folder's name) on ``patch`` at ``time``: from the case
+    folder when it holds the time's y+, else from every processor folder, joined (each holds
+    its share of the patch; a statistic of the area does not depend on the faces' order)."""
+    folders = [case]
+    if not any(_holds(d, "yPlus") for t, d in time_dirs(case)
+               if abs(t - float(time)) <= 1e-9 * max(1.0, abs(t))):
+        folders = processor_dirs(case) or [case]
+    values, areas = [], []
+    for folder in folders:
+        tdir = _time_dir(folder, time)
+        a = patch_face_areas(folder, patch, time)
+        v = read_patch_field(tdir / "yPlus", patch, len(a)) if len(a) else np.zeros(0)
+        if v.shape != a.shape:
+            raise FoamFileError(f"{tdir / 'yPlus'}: {v.size} values on {patch}, mesh has "
+                                f"{a.size} faces")
+        values.append(v)
+        areas.append(a)
+    return np.concatenate(values), np.concatenate(areas), tdir.name
 
 
 def _time_dir(case: Path, time: str) -> Path:

@@ -91,15 +91,17 @@ def input_kind(path: Path) -> str:
 def case_layout(case: Path) -> tuple[str, list]:
     """(``"Reconstructed"`` or ``"Decomposed"``, the written times after 0 ParaView can show).
 
-    Time 0 is left out: ParaView's OpenFOAM reader skips it by default, and the template's 0/
-    files hold ``$Uinlet``-style macros that the reader cannot read.
+    The decomposed case when its processor folders hold more times than the case folder (a
+    parallel run reconstructs only the time the next stage starts from). Time 0 is left out:
+    ParaView's OpenFOAM reader skips it by default, and the template's 0/ files hold
+    ``$Uinlet``-style macros that the reader cannot read.
     """
     times = [t for t, _ in time_dirs(case) if t > 0]
+    ranks = [t for t, _ in time_dirs(case / "processor0") if t > 0]
+    if len(ranks) > len(times):
+        return "Decomposed", ranks
     if times:
         return "Reconstructed", times
-    times = [t for t, _ in time_dirs(case / "processor0") if t > 0]
-    if times:
-        return "Decomposed", times
     raise AdapterError(f"{case} has no written time after 0 to show; run it first with "
                        f"`whale-adapter run-case --case {case}`")
 
