@@ -232,6 +232,9 @@ class Free:
 
     #: run-case runs the free whale after the tethered one, from its last cycle
     enabled: bool = False
+    #: at the release the speed goes from the tethered one to the pair's estimate of the
+    #: self-propelled one over this many periods, forces not heeded (0: released as it is)
+    approach_cycles: float = field(default=0.5, metadata={"check": _non_negative})
     #: the force's mean over a period acts on this fraction of the mass early on (1: never)
     light: float = field(default=0.2, metadata={"check": _within(0, 1, "(]")})
     light_cycles: float = field(default=6.0, metadata={"check": _non_negative})   # at most

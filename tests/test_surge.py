@@ -1,6 +1,7 @@
-"""The free whale's law of motion (adapter/motion/surge.py) against closed forms: Lamb's added
+"""The free whale's law of motion (adapter/coupling/surge.py) against closed forms: Lamb's added
 masses of prolate spheroids, a constant force's uniform acceleration, a linear drag's
-exponential approach to its balance, and a restart that continues the same path."""
+exponential approach to its balance, a restart that continues the same path, and the approach
+at the release (its half-cosine and the release speed's model root)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 from adapter.coupling.frame import FrameState
 from adapter.coupling.surge import (
@@ -16,6 +18,7 @@ from adapter.coupling.surge import (
     PitchRecoil,
     Schedule,
     SurgeFrame,
+    release_speed,
     spheroid_added_inertia,
     spheroid_added_mass,
 )
@@ -256,3 +259,69 @@ def test_the_body_force_is_the_time_schemes_derivative_of_the_velocities_sent(ba
         derivative = (u[2:] - u[1:-1]) / DT
     assert np.ptp(body) > 1.0                                   # it does change
     assert np.abs(body[2:] - derivative).max() < 1e-9 * np.abs(body).max() + 1e-9
+
+
+def test_the_release_speed_is_the_root_of_its_model():
+    # drag D0 (U / U0)^2 against a thrust of constant power T0 U0 / U, T0 = D0 - Fx: the
+    # root found numerically, and the default whale's pair worked by hand
+    u0, drag, fx = 1.3, 587.4, -986.0
+    root = brentq(lambda u: drag * (u / u0) ** 2 - (drag - fx) * u0 / u, 0.5, 5.0)
+    assert release_speed(u0, drag, fx) == pytest.approx(root, rel=1e-12)
+    assert release_speed(u0, drag, fx) == pytest.approx(1.3 * 2.67858 ** (1 / 3), rel=1e-5)
+    # a slow stroke (drag wins) gives a lower speed; no thrust at all or a pair without
+    # figures keeps the tethered speed; the estimate stays within 0.5-2 times it
+    assert release_speed(u0, drag, 100.0) < u0
+    for bad in (drag, 2 * drag, math.nan):
+        assert release_speed(u0, drag, bad) == u0
+    assert release_speed(u0, math.inf, fx) == u0
+    assert release_speed(u0, drag, -100 * drag) == 2 * u0
+
+
+@pytest.mark.parametrize("backward", [False, True])
+def test_the_approach_follows_its_half_cosine_and_heeds_no_force(backward):
+    # release at 1 s, approach over 2 s from 1.3 to 1.7 m/s, then a linear drag balanced at
+    # 1.7: the speed is the half-cosine during the approach whatever the force, and stays
+    # at the balance afterwards
+    release, length, u0, u1 = 1.0, 2.0, 1.3, 1.7
+    schedule = Schedule(release, 1.0, approach_s=length, approach_speed=u1)
+    frame = SurgeFrame(u0, Inertia(5000.0, 0.0, 0.0), schedule, backward=backward)
+    rows, accel, t = [], [], 0.0
+    frame.answer(0.0, SimpleNamespace(pressure_force=NAN3, viscous_force=NAN3))
+    while t < 6.0 - 1e-12:
+        t += DT
+        wild = 1e6 if t <= release + length else 2000.0 * (frame.velocity[0] - u1)
+        state = frame.answer(t, request(wild))
+        rows.append((t, state.velocity[0]))
+        accel.append(state.acceleration[0])
+    rows = np.array(rows)
+    during = (rows[:, 0] > release) & (rows[:, 0] <= release + length + 1e-12)
+    tau = (rows[during, 0] - release) / length
+    np.testing.assert_allclose(rows[during, 1], u0 + (u1 - u0) * 0.5 * (1 - np.cos(np.pi * tau)),
+                               atol=1e-12)
+    assert np.all(rows[rows[:, 0] <= release, 1] == u0)
+    # the body force is the scheme's derivative of the speeds sent: Euler's (u_n+1 - u_n) / dt,
+    # backward's (3 u_n+1 - 4 u_n + u_n-1) / (2 dt)
+    u = rows[:, 1]
+    k = np.flatnonzero(during)[5:-5]
+    want = ((3 * u[k] - 4 * u[k - 1] + u[k - 2]) / (2 * DT) if backward
+            else (u[k] - u[k - 1]) / DT)
+    np.testing.assert_allclose(np.array(accel)[k], want, rtol=1e-9)
+    assert np.max(np.abs(rows[rows[:, 0] > release + length, 1] - u1)) < 1e-6
+
+
+def test_the_lighter_mass_waits_for_a_whole_period_of_forces():
+    # balanced at the release speed, under a swing S sin(w t): until a whole period has been
+    # measured the true mass alone moves the speed, u - u0 = S (1 - cos w t) / (M w) at most
+    # 2 S / (M w); a mean of the first few samples on the lighter mass would be the swing
+    # itself, five times amplified
+    m, swing, period, u0 = 5000.0, 3000.0, 1.0, 1.7
+    omega = 2 * math.pi / period
+    frame = SurgeFrame(u0, Inertia(m, 0.0, 0.0), Schedule(0.0, period, light=0.2,
+                                                         light_cycles=100.0))
+    t = {"now": 0.0}
+
+    def flow(s, t=t):
+        t["now"] += DT
+        return (2000.0 * (s.velocity[0] - u0) + swing * math.sin(omega * t["now"]), 0.0)
+    rows = run(frame, flow, 1.0, DT)
+    assert np.max(np.abs(rows[:, 1] - u0)) < 1.05 * 2 * swing / (m * omega)

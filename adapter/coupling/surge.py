@@ -14,10 +14,15 @@ takes ``G = F - m_a a_prev`` and advances ``(m + m_a) du_f/dt = -G``: the explic
 light body with the added mass moved to the left, stable whatever m_a / m (an error in the
 estimate of m_a only lags the reaction by one step).
 
+At the release the frame's speed may first be brought, over ``approach_s`` and with the forces
+not heeded, from the tethered speed to an estimate of the self-propelled one (``free.approach``,
+:func:`release_speed`): a half-cosine in time, the body force its derivative.
+
 Early on a lighter mass may speed the approach to the self-propelled state (``free.light``):
 the force's running mean over the last stroke period acts on ``light * (m + m_a)`` while the
 stroke's swing about that mean acts on the true ``m + m_a``, so the swing of the speed within a
-cycle stays that of the real whale. The true mass alone (``du_f/dt = -G / (m + m_a)``) takes
+cycle stays that of the real whale; it does so once the window holds a whole period of forces
+after the approach (before that, the true mass alone). The true mass alone (``du_f/dt = -G / (m + m_a)``) takes
 over for good once that running mean is small (:class:`Schedule`), or ``light_cycles`` periods
 after the release at the latest.
 """
@@ -99,19 +104,48 @@ class Schedule:
     release_s: float          #: the frame keeps its velocity until this time
     period_s: float           #: the stroke period: the running mean's window
     light: float = 1.0        #: the running mean's mass, fraction of m + m_a (1: none)
-    light_cycles: float = 0.0  #: at most this many stroke periods after the release
-    #: ... or until, a period or more after the release, the running mean of the force along x
-    #: is under ``switch`` times ``reference_N`` (0: no early end)
+    light_cycles: float = 0.0  #: at most this many stroke periods after the approach
+    #: ... or until, a period or more after the approach, the running mean of the force along
+    #: x is under ``switch`` times ``reference_N`` (0: no early end)
     switch: float = 0.0
     reference_N: float = 0.0
+    #: after the release the speed goes to ``approach_speed`` over this long (0: no approach)
+    approach_s: float = 0.0
+    approach_speed: float = 0.0
+
+    def free_from(self) -> float:
+        """When the momentum balance takes over: the release, after the approach."""
+        return self.release_s + self.approach_s
 
     def light_until(self) -> float:
-        return self.release_s + self.light_cycles * self.period_s
+        return self.free_from() + self.light_cycles * self.period_s
 
     def settles(self, t: float, mean_x: float) -> bool:
         """Whether the lighter mass ends at ``t`` with this running mean along x."""
-        return (self.switch > 0 and t >= self.release_s + self.period_s
+        return (self.switch > 0 and t >= self.free_from() + self.period_s
                 and abs(mean_x) < self.switch * self.reference_N)
+
+    def approach(self, t: float, start_speed: float) -> float:
+        """The frame's speed at ``t`` during the approach: from ``start_speed`` at the release
+        to ``approach_speed`` at its end along a half-cosine (no jump of the acceleration at
+        either end beyond one step's)."""
+        tau = min(max((t - self.release_s) / self.approach_s, 0.0), 1.0)
+        return start_speed + (self.approach_speed - start_speed) * 0.5 * (1 - math.cos(
+            math.pi * tau))
+
+
+def release_speed(speed: float, drag: float, mean_fx: float) -> float:
+    """An estimate of the self-propelled speed from the tethered pair at ``speed``: its gliding
+    drag ``drag`` and its stroke's mean Fx ``mean_fx`` (negative: thrust to spare). The drag
+    taken to grow as U^2 and the stroke's thrust power T U to stay what it was, the balance
+    ``drag (U / speed)^2 = (drag - mean_fx) speed / U`` gives U^3 = speed^3 (1 - mean_fx /
+    drag); ``speed`` itself when the pair says nothing (not finite, no drag, or no thrust),
+    and within 0.5-2 times ``speed``. Only the approach uses it: the momentum balance finds
+    the speed (docs/free-swimming.md, "The approach")."""
+    if not (math.isfinite(speed) and math.isfinite(drag) and math.isfinite(mean_fx)
+            and speed > 0 and drag > 0 and mean_fx < drag):
+        return speed
+    return speed * min(max((1.0 - mean_fx / drag) ** (1.0 / 3.0), 0.5), 2.0)
 
 
 class SurgeFrame:
@@ -148,6 +182,7 @@ class SurgeFrame:
         self.axes = (SURGE, HEAVE) if heave else (SURGE,)
         self.force_scale = float(force_scale)
         self.t: float | None = None
+        self.start_speed = float(speed)
         self.velocity = np.array([float(speed), 0.0, 0.0])
         self.acceleration = np.zeros(3)
         #: the acceleration of the velocity step before this one (backward's older level)
@@ -168,6 +203,8 @@ class SurgeFrame:
             return self._state_now()
         force = (np.asarray(request.pressure_force, float)
                  + np.asarray(request.viscous_force, float)) * self.force_scale
+        if self.schedule.approach_s > 0 and time <= self.schedule.free_from() + 1e-12:
+            return self._approach(time, force)
         new = (self._acceleration(force, self.t) if np.all(np.isfinite(force[list(self.axes)]))
                else self.acceleration.copy())
         self.previous_acceleration, self.acceleration = self.acceleration, new
@@ -177,6 +214,18 @@ class SurgeFrame:
             about = moment[1] - float(np.cross(self.pitch.centre, force)[1])
             if np.isfinite(about):
                 self.pitch.advance(about, self.t, time - self.t)
+        self.velocity = self.velocity + self.acceleration * (time - self.t)
+        self.t = time
+        self._log(force)
+        return self._state_now()
+
+    def _approach(self, time: float, force: np.ndarray):
+        """A step of the approach: the speed prescribed (:meth:`Schedule.approach`), the
+        acceleration the one that reaches it over the step, the forces only logged."""
+        new = np.zeros(3)
+        new[SURGE] = (self.schedule.approach(time, self.start_speed)
+                      - self.velocity[SURGE]) / (time - self.t)
+        self.previous_acceleration, self.acceleration = self.acceleration, new
         self.velocity = self.velocity + self.acceleration * (time - self.t)
         self.t = time
         self._log(force)
@@ -258,7 +307,11 @@ class SurgeFrame:
                                        or self.schedule.light >= 1.0
                                        or self.schedule.settles(t_force, mean[0])):
             self.true_from = t_force
-        if self.true_from is None:
+        # the lighter mass acts once the running mean is a whole period's: a mean of the
+        # first few samples after the release is the stroke's swing, which the lighter mass
+        # would amplify fivefold (the true mass moves the speed meanwhile)
+        whole = t_force >= self.schedule.free_from() + window * (1 - 1e-9)
+        if self.true_from is None and whole:
             accel[axes] = -(rest - mean) / total - mean / (self.schedule.light * total)
         else:
             accel[axes] = -rest / total
@@ -341,7 +394,9 @@ def frame_of(record: dict, log_path: Path | None = None) -> SurgeFrame | None:
     schedule = Schedule(float(record["free_release_s"]), float(record["period_s"]),
                         float(free["light"]), float(free["light_cycles"]),
                         switch=float(free["light_switch"]),
-                        reference_N=float(record["free_reference_drag_N"]))
+                        reference_N=float(record["free_reference_drag_N"]),
+                        approach_s=float(record.get("free_approach_s", 0.0)),
+                        approach_speed=float(record.get("free_approach_speed_m_s", 0.0)))
     return SurgeFrame(float(record["speed_m_s"]), inertia_of(record), schedule,
                       heave=bool(free["heave"]),
                       force_scale=2.0 if record.get(SYMMETRY_PLANE) else 1.0,

@@ -4,11 +4,13 @@ After the tethered pair (adapter/foam/swimrun.py), with ``free.enabled``:
 
 3. **Free** (``<case>/free/``): the tethered run's last written time copied as the start, the
    inflow and a uniform body force following the whale's frame (the step-server's
-   :class:`~adapter.motion.surge.SurgeFrame`, through the plugin's ``whaleFrameInletVelocity``
-   and ``whaleFrameAcceleration``), until the whale swims by itself: over the last two whole
-   cycles with the true mass the cycle-mean speed changes by less than
-   ``free.speed_tolerance`` and the last cycle's mean Fx is under ``free.fx_tolerance`` of the
-   gliding drag; at most ``free.cycles`` cycles.
+   :class:`~adapter.coupling.surge.SurgeFrame`, through the plugin's ``whaleFrameInletVelocity``
+   and ``whaleFrameAcceleration``), its speed first brought to the tethered pair's estimate of
+   the self-propelled one over ``free.approach_cycles`` periods, until the whale swims by
+   itself: over the last two whole periods (the first true-mass cycle counts with the period
+   before it, the one whose running mean let the true mass take over) the mean speed changes
+   by less than ``free.speed_tolerance`` and the last true-mass cycle's mean Fx is under
+   ``free.fx_tolerance`` of the gliding drag; at most ``free.cycles`` cycles.
 4. **Gliding at the self-propelled speed** (``<case>/gliding-free/``): the gliding run's last
    time copied, its inflow set to U_sp, until steady: the drag the swimming whale overcomes.
 
@@ -23,13 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
-from adapter.coupling.surge import FRAME_LOG, inertia_of
+from adapter.coupling.surge import FRAME_LOG, inertia_of, release_speed
 from adapter.errors import CaseError
 from adapter.foam import loads as ld
 from adapter.foam.case import Case
 from adapter.foam.casescene import CASE_SCENE
 from adapter.foam.dictionaries import parsed_dict, use_frame_inflow
-from adapter.foam.parallel import reconstruct_new_times
+from adapter.foam.parallel import reconstruct_latest_time
 from adapter.foamfiles import time_dirs
 
 FREE = "free"
@@ -63,8 +65,8 @@ def read_frame_log(case_dir) -> dict:
 
 def _copy_case_at(src: Path, dst: Path, extra=()) -> float:
     """``dst``: src's system, constant, 0.orig and its latest written time (reconstructed
-    first), and ``extra`` files of src; returns that time."""
-    reconstruct_new_times(src)
+    first, alone), and ``extra`` files of src; returns that time."""
+    reconstruct_latest_time(src)
     times = [(t, p) for t, p in time_dirs(src) if t > 0]
     if not times:
         raise CaseError(f"{src} has no written time to start from; run it first")
@@ -86,9 +88,11 @@ def _set_end(case: Path, end_time: float) -> None:
     d.writeFile()
 
 
-def prepare_free(case: Path, drag: float) -> Path:
+def prepare_free(case: Path, drag: float, mean_fx: float = float("nan")) -> Path:
     """``<case>/free``: the tethered swimming run at its latest time, released there; kept
-    when it exists. ``drag``: the gliding drag, the scale of the lighter mass's end."""
+    when it exists. ``drag``: the gliding drag, the scale of the lighter mass's end;
+    ``mean_fx``: the tethered stroke's mean Fx, with ``drag`` the approach's target speed
+    (:func:`~adapter.coupling.surge.release_speed`)."""
     free = case / FREE
     if (free / "system" / "controlDict").exists():
         return free
@@ -96,11 +100,16 @@ def prepare_free(case: Path, drag: float) -> Path:
     state = [f"adapter/{p.name}" for p in (case / "adapter").glob("state_*.npz")]
     # the case's own scene: the free whale's server animates the tethered one's
     t0 = _copy_case_at(case, free, extra=[*state, CASE_SCENE])
+    period = float(record["period_s"])
     record["free_release_s"] = t0
     record["free_reference_drag_N"] = float(drag)
+    approach = float(record["free"].get("approach_cycles", 0.0)) * period
+    if approach > 0:
+        record["free_approach_s"] = approach
+        record["free_approach_speed_m_s"] = release_speed(float(record["speed_m_s"]),
+                                                          float(drag), float(mean_fx))
     Case(free).save(record)
-    period = float(record["period_s"])
-    _set_end(free, t0 + float(record["free"]["cycles"]) * period)
+    _set_end(free, t0 + approach + float(record["free"]["cycles"]) * period)
     use_frame_inflow(free, ("0.orig", time_dirs(free)[-1][1].name))
     return free
 
@@ -126,10 +135,12 @@ def prepare_gliding_at(glide: Path, speed: float) -> Path:
 
 # --- when the whale swims by itself ----------------------------------------------------------
 
-def true_mass_cycles(case: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def true_mass_cycles(case: Path, before: bool = False
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Start, mean speed and mean Fx of each whole cycle after the lighter mass gave way (the
     true mass's cycles: the frame log's first row with light 0), from the frame log and
-    loads.dat."""
+    loads.dat; ``before``: with the period before them first (the lighter mass's last, whose
+    running mean let the true mass take over) when the whale was free all through it."""
     record = Case(case).record
     period = float(record["period_s"])
     frame, data = read_frame_log(case), ld.read_loads(case)
@@ -140,6 +151,9 @@ def true_mass_cycles(case: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if not len(true):
         return empty
     first = float(true[0])
+    free_from = float(record["free_release_s"]) + float(record.get("free_approach_s", 0.0))
+    if before and first - period >= free_from - 1e-9:
+        first -= period
     speed = ld.cycle_stats(frame["Time"], frame["Ux"], frame["Ux"], period, first)
     force = ld.cycle_stats(data["Time"], data["total:Fx"], data["total:Fx"], period, first)
     n = min(len(speed.starts), len(force.starts))
@@ -149,7 +163,7 @@ def true_mass_cycles(case: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def settled(case: Path, drag: float) -> str | None:
     """The stop rule of the free run: a reason once the whale swims by itself, else None."""
     free = Case(case).record["free"]
-    _, speed, fx = true_mass_cycles(case)
+    _, speed, fx = true_mass_cycles(case, before=True)
     if len(speed) < 2:
         return None
     change = abs(speed[-1] - speed[-2]) / abs(speed[-1])
@@ -167,6 +181,7 @@ def free_figures(free: Path, glide_sp: Path, tethered_drag: float) -> dict:
     starts, speed, fx = true_mass_cycles(free)
     if not len(starts):
         raise CaseError(f"{free}: no whole cycle with the true mass; raise free.cycles")
+    before = true_mass_cycles(free, before=True)[1]
     window = (starts[-1], starts[-1] + period)
     data, gd = ld.read_loads(free), ld.read_loads(glide_sp)
     t0 = float(Case(glide_sp).record["gliding_from_s"])
@@ -189,8 +204,8 @@ def free_figures(free: Path, glide_sp: Path, tethered_drag: float) -> dict:
     body_swim = swim_mean("whale.body:Fx") if body_glide > 0 and "whale.body:Fx" in data else None
     return {
         "speed_m_s": u_sp,
-        "speed_change_last_two_cycles": float(abs(speed[-1] - speed[-2]) / u_sp)
-        if len(speed) > 1 else float("nan"),
+        "speed_change_last_two_cycles": float(abs(speed[-1] - before[-2]) / u_sp)
+        if len(before) > 1 else float("nan"),
         "mean_fx_N": float(fx[-1]), "mean_fx_of_gliding_drag": float(fx[-1]) / tethered_drag,
         "mean_power_W": power,
         "cost_of_transport_J_kg_m": power / (inertia.mass_kg * u_sp),
@@ -232,12 +247,13 @@ def steady_gliding(period: float, tolerance: float, start_up: float):
     return rule
 
 
-def run_free(case: Path, glide: Path, drag: float, runner) -> dict:
+def run_free(case: Path, glide: Path, drag: float, runner,
+             mean_fx: float = float("nan")) -> dict:
     """Stages 3 and 4 (the module's docstring): the free whale, then gliding at its speed;
-    ``runner(case, rule)`` runs a case until ``rule`` says why to stop (swimrun's). Returns
-    :func:`free_figures`, with ``settled`` (the free run's stop rule held) and the two runs'
-    wall times."""
-    free = prepare_free(case, drag)
+    ``runner(case, rule)`` runs a case until ``rule`` says why to stop (swimrun's); ``drag``
+    and ``mean_fx``: the tethered pair's (:func:`prepare_free`). Returns :func:`free_figures`,
+    with ``settled`` (the free run's stop rule held) and the two runs' wall times."""
+    free = prepare_free(case, drag, mean_fx)
     f_summary = runner(free, lambda c: settled(c, drag))
     starts, speed, _ = true_mass_cycles(free)
     if not len(speed):
