@@ -237,10 +237,10 @@ class Free:
     approach_cycles: float = field(default=0.5, metadata={"check": _non_negative})
     #: the force's mean over a period acts on this fraction of the mass early on (1: never)
     light: float = field(default=0.2, metadata={"check": _within(0, 1, "(]")})
-    light_cycles: float = field(default=6.0, metadata={"check": _non_negative})   # at most
-    #: ... until that running mean is under this fraction of the gliding drag (0: never)
-    light_switch: float = field(default=0.005, metadata={"check": _non_negative})
-    #: stop: cycle-mean speed change over the last two cycles, cycle-mean Fx of the drag
+    light_cycles: float = field(default=10.0, metadata={"check": _non_negative})   # at most
+    #: ... or until that running mean is under this fraction of the gliding drag (0: never)
+    light_switch: float = field(default=0.0, metadata={"check": _non_negative})
+    #: stop: cycle-mean speed change over the last two cycles measured, cycle-mean Fx of the drag
     speed_tolerance: float = field(default=0.005, metadata={"check": _positive})
     fx_tolerance: float = field(default=0.01, metadata={"check": _positive})
     cycles: float = field(default=10.0, metadata={"check": _positive})   # at most, after release

@@ -225,46 +225,41 @@ def test_run_case_runs_gliding_and_swimming_to_a_periodic_state(tmp_path):
     assert glide_sp["Time"][0] > glide["Time"][-1] - 1e-9
 
 
-def _free_case(tmp_path, switch_at: float, speeds, fx_true: float):
-    """A free case's record, frame log and loads: period 1 s, released at 0, approach 0.5 s,
-    the true mass from ``switch_at``; the speed's mean per period ``speeds`` (a swing of zero
-    mean on top), Fx ``fx_true`` of mean after the switch."""
+def _free_case(tmp_path, speeds, fx_last: float):
+    """A free case's record, frame log and loads: period 1 s, released at 0, an approach of
+    0.5 s, so measured from 1.5 s; at 1.3 m/s until then, then a mean speed ``speeds[k]`` in
+    the k-th period measured (a swing of zero mean on top); Fx 50 N of mean, ``fx_last`` in
+    the last period."""
     from adapter.foam.case import Case
 
     case = tmp_path / "free"
     Case(case).save({"period_s": 1.0, "free_release_s": 0.0, "free_approach_s": 0.5,
                      "free": {"speed_tolerance": 0.005, "fx_tolerance": 0.01}})
-    t = np.round(np.arange(1, 100 * len(speeds) + 1) * 0.01, 10)
-    period = np.minimum((t - 1e-9).astype(int), len(speeds) - 1)
-    ux = np.asarray(speeds)[period] + 0.05 * np.sin(2 * np.pi * t)
-    fx = np.where(t > switch_at, fx_true, 50.0) + 30 * np.sin(4 * np.pi * t)
-    light = (t < switch_at).astype(float)
-    rows = [f"{a:.10g} {u:.10g} 0 0 0 {f:.10g} 0 {w:g} 0" for a, u, f, w in
-            zip(t, ux, fx, light, strict=True)]
+    t = np.round(np.arange(1, 100 * (1.5 + len(speeds)) + 1) * 0.01, 10)
+    k = np.clip(np.ceil(t - 1.5 - 1e-9).astype(int) - 1, -1, len(speeds) - 1)
+    ux = np.where(k < 0, 1.3, np.asarray(speeds)[k]) + 0.05 * np.sin(2 * np.pi * t)
+    fx = np.where(k == len(speeds) - 1, fx_last, 50.0) + 30 * np.sin(4 * np.pi * t)
+    rows = [f"{a:.10g} {u:.10g} 0 0 0 {f:.10g} 0 1 0" for a, u, f in zip(t, ux, fx, strict=True)]
     (case / "adapter").mkdir()
     (case / "adapter" / "frame.dat").write_text("# Time Ux ...\n" + "\n".join(rows) + "\n")
     _write_loads(case / "postProcessing" / "loads" / "0" / "loads.dat", t, fx, 0 * t)
     return case
 
 
-def test_the_free_run_settles_on_its_first_true_mass_cycle_and_the_period_before(tmp_path):
-    """The stop rule compares the first true-mass cycle with the period whose running mean
-    let the true mass take over (free after the approach), not with a second true cycle."""
-    from adapter.foam.freerun import settled, true_mass_cycles
+def test_the_free_run_is_measured_from_a_period_after_the_approach(tmp_path):
+    """The stop rule takes the last two whole cycles from a period after the approach on (the
+    running mean then a whole period's), whatever the mass: 1.5 s, 2.5 s, ... here."""
+    from adapter.foam.freerun import measured_cycles, settled
 
     drag = 600.0
-    # the switch at 2.0 s: the window before it, [1, 2), lies after the approach (0.5 s)
-    case = _free_case(tmp_path / "a", 2.0, [1.5, 1.700, 1.702], 2.0)
-    starts, speed, fx = true_mass_cycles(case, before=True)
-    np.testing.assert_allclose(starts, [1.0, 2.0])
+    case = _free_case(tmp_path / "a", [1.700, 1.702], 2.0)
+    starts, speed, fx = measured_cycles(case)
+    np.testing.assert_allclose(starts, [1.5, 2.5])
     np.testing.assert_allclose(speed, [1.700, 1.702], atol=1e-3)
     assert fx[-1] == pytest.approx(2.0, abs=0.5)
     assert "self-propelled" in settled(case, drag)
-    # the same with the speed still moving (0.6 %) or Fx over 1 % of the drag: not yet
-    assert settled(_free_case(tmp_path / "b", 2.0, [1.5, 1.700, 1.710], 2.0), drag) is None
-    assert settled(_free_case(tmp_path / "c", 2.0, [1.5, 1.700, 1.702], 9.0), drag) is None
-    # a switch within a period of the approach's end: the period before was not free, so
-    # two true-mass cycles are needed
-    early = _free_case(tmp_path / "d", 1.2, [1.700, 1.702, 1.702], 2.0)
-    assert true_mass_cycles(early, before=True)[0].tolist() == pytest.approx([1.2])
-    assert settled(early, drag) is None
+    # the speed still moving (0.6 %), Fx over 1 % of the drag, or one cycle only: not yet
+    assert settled(_free_case(tmp_path / "b", [1.700, 1.710], 2.0), drag) is None
+    assert settled(_free_case(tmp_path / "c", [1.700, 1.702], 9.0), drag) is None
+    assert settled(_free_case(tmp_path / "d", [1.702], 2.0), drag) is None
+

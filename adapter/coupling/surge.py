@@ -22,9 +22,10 @@ Early on a lighter mass may speed the approach to the self-propelled state (``fr
 the force's running mean over the last stroke period acts on ``light * (m + m_a)`` while the
 stroke's swing about that mean acts on the true ``m + m_a``, so the swing of the speed within a
 cycle stays that of the real whale; it does so once the window holds a whole period of forces
-after the approach (before that, the true mass alone). The true mass alone (``du_f/dt = -G / (m + m_a)``) takes
-over for good once that running mean is small (:class:`Schedule`), or ``light_cycles`` periods
-after the release at the latest.
+after the approach (before that, the true mass alone). At a periodic state that running mean
+is zero and the law is the true mass's. The true mass alone (``du_f/dt = -G / (m + m_a)``) may
+take over for good once the running mean is small (``switch``, :class:`Schedule`), or
+``light_cycles`` periods after the approach at the latest.
 """
 
 from __future__ import annotations

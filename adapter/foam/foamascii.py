@@ -12,6 +12,7 @@ Case dictionaries are read and written with PyFoam (:mod:`adapter.foam.dictionar
 
 from __future__ import annotations
 
+import functools
 import gzip
 import re
 from pathlib import Path
@@ -88,7 +89,19 @@ def _matching(text: str, open_pos: int, pair: str = "()") -> int:
 
 
 def read_faces(path) -> list:
-    """Faces (lists of point labels) of a ``faceList`` or ``faceCompactList`` file."""
+    """Faces (lists of point labels) of a ``faceList`` or ``faceCompactList`` file. A file read
+    before and not changed since is not parsed again (a moving mesh's faces stay in
+    constant/polyMesh while every written time is read); the list is shared: do not change it."""
+    path = Path(path)
+    real = path if path.is_file() else path.with_name(path.name + ".gz")
+    if not real.is_file():
+        read_foam_text(path)        # the missing file's error
+    stat = real.stat()
+    return _read_faces(str(path), stat.st_mtime_ns, stat.st_size)
+
+
+@functools.lru_cache(maxsize=8)
+def _read_faces(path: str, mtime_ns: int, size: int) -> list:
     text = read_foam_text(path)
     m = re.search(r"\bclass\s+(\w+)\s*;", text)
     cls = m.group(1) if m else "faceList"

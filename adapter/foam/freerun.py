@@ -7,10 +7,9 @@ After the tethered pair (adapter/foam/swimrun.py), with ``free.enabled``:
    :class:`~adapter.coupling.surge.SurgeFrame`, through the plugin's ``whaleFrameInletVelocity``
    and ``whaleFrameAcceleration``), its speed first brought to the tethered pair's estimate of
    the self-propelled one over ``free.approach_cycles`` periods, until the whale swims by
-   itself: over the last two whole periods (the first true-mass cycle counts with the period
-   before it, the one whose running mean let the true mass take over) the mean speed changes
-   by less than ``free.speed_tolerance`` and the last true-mass cycle's mean Fx is under
-   ``free.fx_tolerance`` of the gliding drag; at most ``free.cycles`` cycles.
+   itself: over the last two whole cycles measured (from a period after the approach on) the
+   cycle-mean speed changes by less than ``free.speed_tolerance`` and the last cycle's mean
+   Fx is under ``free.fx_tolerance`` of the gliding drag; at most ``free.cycles`` cycles.
 4. **Gliding at the self-propelled speed** (``<case>/gliding-free/``): the gliding run's last
    time copied, its inflow set to U_sp, until steady: the drag the swimming whale overcomes.
 
@@ -135,25 +134,23 @@ def prepare_gliding_at(glide: Path, speed: float) -> Path:
 
 # --- when the whale swims by itself ----------------------------------------------------------
 
-def true_mass_cycles(case: Path, before: bool = False
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Start, mean speed and mean Fx of each whole cycle after the lighter mass gave way (the
-    true mass's cycles: the frame log's first row with light 0), from the frame log and
-    loads.dat; ``before``: with the period before them first (the lighter mass's last, whose
-    running mean let the true mass take over) when the whale was free all through it."""
+def measured_from(record: dict) -> float:
+    """When the free run's cycles are measured from: a whole period after the approach, once
+    the running mean of the momentum balance is a period's (adapter/coupling/surge.py)."""
+    return (float(record["free_release_s"]) + float(record.get("free_approach_s", 0.0))
+            + float(record["period_s"]))
+
+
+def measured_cycles(case: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Start, mean speed and mean Fx of each whole cycle from :func:`measured_from` on, from
+    the frame log and loads.dat. The lighter mass may still act on them: at a periodic state
+    its running mean is zero and the law is the true mass's (docs/free-swimming.md)."""
     record = Case(case).record
     period = float(record["period_s"])
     frame, data = read_frame_log(case), ld.read_loads(case)
-    empty = np.array([]), np.array([]), np.array([])
     if not frame or not data:
-        return empty
-    true = frame["Time"][(frame["light"] == 0) & (frame["Time"] > float(record["free_release_s"]))]
-    if not len(true):
-        return empty
-    first = float(true[0])
-    free_from = float(record["free_release_s"]) + float(record.get("free_approach_s", 0.0))
-    if before and first - period >= free_from - 1e-9:
-        first -= period
+        return np.array([]), np.array([]), np.array([])
+    first = measured_from(record)
     speed = ld.cycle_stats(frame["Time"], frame["Ux"], frame["Ux"], period, first)
     force = ld.cycle_stats(data["Time"], data["total:Fx"], data["total:Fx"], period, first)
     n = min(len(speed.starts), len(force.starts))
@@ -163,7 +160,7 @@ def true_mass_cycles(case: Path, before: bool = False
 def settled(case: Path, drag: float) -> str | None:
     """The stop rule of the free run: a reason once the whale swims by itself, else None."""
     free = Case(case).record["free"]
-    _, speed, fx = true_mass_cycles(case, before=True)
+    _, speed, fx = measured_cycles(case)
     if len(speed) < 2:
         return None
     change = abs(speed[-1] - speed[-2]) / abs(speed[-1])
@@ -175,13 +172,12 @@ def settled(case: Path, drag: float) -> str | None:
 
 
 def free_figures(free: Path, glide_sp: Path, tethered_drag: float) -> dict:
-    """The figures at the self-propelled state, over the last whole true-mass cycle."""
+    """The figures at the self-propelled state, over the last whole measured cycle."""
     record = Case(free).record
     period = float(record["period_s"])
-    starts, speed, fx = true_mass_cycles(free)
+    starts, speed, fx = measured_cycles(free)
     if not len(starts):
-        raise CaseError(f"{free}: no whole cycle with the true mass; raise free.cycles")
-    before = true_mass_cycles(free, before=True)[1]
+        raise CaseError(f"{free}: no whole measured cycle; raise free.cycles")
     window = (starts[-1], starts[-1] + period)
     data, gd = ld.read_loads(free), ld.read_loads(glide_sp)
     t0 = float(Case(glide_sp).record["gliding_from_s"])
@@ -204,8 +200,8 @@ def free_figures(free: Path, glide_sp: Path, tethered_drag: float) -> dict:
     body_swim = swim_mean("whale.body:Fx") if body_glide > 0 and "whale.body:Fx" in data else None
     return {
         "speed_m_s": u_sp,
-        "speed_change_last_two_cycles": float(abs(speed[-1] - before[-2]) / u_sp)
-        if len(before) > 1 else float("nan"),
+        "speed_change_last_two_cycles": float(abs(speed[-1] - speed[-2]) / u_sp)
+        if len(speed) > 1 else float("nan"),
         "mean_fx_N": float(fx[-1]), "mean_fx_of_gliding_drag": float(fx[-1]) / tethered_drag,
         "mean_power_W": power,
         "cost_of_transport_J_kg_m": power / (inertia.mass_kg * u_sp),
@@ -216,7 +212,8 @@ def free_figures(free: Path, glide_sp: Path, tethered_drag: float) -> dict:
         "body_drag_swimming_N": body_swim,
         "body_drag_gliding_N": body_glide if body_swim is not None else None,
         "drag_augmentation": body_swim / body_glide if body_swim is not None else None,
-        "cycles_true_mass": int(len(starts)),
+        "cycles_measured": int(len(starts)),
+        "measured_from_s": measured_from(record),
         "window_s": list(window),
         "mass_kg": inertia.mass_kg,
         "added_surge_kg": inertia.added_surge_kg,
@@ -255,9 +252,9 @@ def run_free(case: Path, glide: Path, drag: float, runner,
     with ``settled`` (the free run's stop rule held) and the two runs' wall times."""
     free = prepare_free(case, drag, mean_fx)
     f_summary = runner(free, lambda c: settled(c, drag))
-    starts, speed, _ = true_mass_cycles(free)
+    starts, speed, _ = measured_cycles(free)
     if not len(speed):
-        raise CaseError(f"{free}: the free run ended before a whole cycle with the true mass; "
+        raise CaseError(f"{free}: the free run ended before a whole measured cycle; "
                         "raise free.cycles")
     glide_sp = prepare_gliding_at(glide, float(speed[-1]))
     record = Case(glide_sp).record

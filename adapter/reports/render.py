@@ -170,7 +170,8 @@ def plot_forces(swim: dict, glide: dict, period: float, start_up: float, path: P
 
 def free_figure(frame: dict, loads: dict, period: float, figures: dict):
     """free.png: the free whale's forward speed (the frame log's Ux) and Fx against time, the
-    lighter mass's stretch greyed, the cycle means over the true mass's cycles, and U_sp."""
+    stretch before the measured cycles greyed (the approach and the running mean's first
+    period), the stroke cycles measured, and U_sp with the last cycle's means."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -178,7 +179,7 @@ def free_figure(frame: dict, loads: dict, period: float, figures: dict):
 
     fig, (top, low) = plt.subplots(2, 1, figsize=(9, 5.5), dpi=110, sharex=True)
     t = frame["Time"]
-    light = t[frame["light"] > 0]
+    measured = figures.get("measured_from_s", figures["release_s"])
     top.plot(t, frame["Ux"], color="C0", lw=1.2, label="forward speed U (the inflow)")
     low.plot(loads["Time"], loads["total:Fx"], color="C0", lw=1.0, label="Fx")
     start, end = figures["window_s"]
@@ -187,15 +188,14 @@ def free_figure(frame: dict, loads: dict, period: float, figures: dict):
     low.plot([start, end], [figures["mean_fx_N"]] * 2, color="k", lw=2.2,
              label=f"last cycle mean {figures['mean_fx_N']:+.1f} N")
     for ax in (top, low):
-        if len(light):
-            ax.axvspan(t[0], light[-1], color="0.88", zorder=0)
-        for c in np.arange(figures["release_s"], t[-1] + 1e-9, period):
+        ax.axvspan(t[0], measured, color="0.88", zorder=0)
+        for c in np.arange(measured, t[-1] + 1e-9, period):
             ax.axvline(c, color="0.6", lw=0.8, zorder=0)
         ax.legend(loc="lower right", fontsize=8)
     low.axhline(0, color="0.7", lw=0.6)
     top.set_ylabel("U (m/s)")
     low.set_ylabel("Fx (N)")
-    low.set_xlabel("time (s); grey: the lighter mass, lines: stroke cycles from the release")
+    low.set_xlabel("time (s); grey: the approach, not measured; lines: the cycles measured")
     top.set_title(f"the free whale: U_sp {figures['speed_m_s']:.3f} m/s, "
                   f"{figures['mean_power_W']:,.0f} W, QPC "
                   f"{figures['quasi_propulsive_efficiency']:.2f}", fontsize=10)
