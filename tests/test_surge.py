@@ -12,16 +12,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+from adapter.coupling.added_mass import Inertia, spheroid_added_inertia, spheroid_added_mass
 from adapter.coupling.frame import FrameState
-from adapter.coupling.surge import (
-    Inertia,
-    PitchRecoil,
-    Schedule,
-    SurgeFrame,
-    release_speed,
-    spheroid_added_inertia,
-    spheroid_added_mass,
-)
+from adapter.coupling.surge import PitchRecoil, Schedule, SurgeFrame, release_speed
 
 NAN3 = (math.nan,) * 3
 #: a step that adds up exactly in binary, so that two runs meet the same times

@@ -37,65 +37,13 @@ from pathlib import Path
 
 import numpy as np
 
+from adapter.coupling.added_mass import HEAVE, SURGE, Inertia, spheroid_added_inertia
 from adapter.coupling.frame import FrameState
 from adapter.errors import CaseError
 from adapter.jsonfiles import SYMMETRY_PLANE
 
-#: the axes a free whale may move along: surge (x) always, heave (z) when asked
-SURGE, HEAVE = 0, 2
 #: the frame's log in a case's adapter/ folder (:class:`SurgeFrame`'s ``log_path``)
 FRAME_LOG = "frame.dat"
-
-
-def spheroid_added_mass(length: float, diameter: float) -> tuple[float, float]:
-    """Added-mass coefficients (k1 along the axis, k2 across it) of a prolate spheroid of this
-    length and largest diameter, as fractions of its displaced mass (Lamb, Hydrodynamics,
-    section 373: k1 = a0 / (2 - a0), k2 = b0 / (2 - b0))."""
-    if not (length > diameter > 0):
-        raise ValueError(f"a prolate spheroid needs length > diameter > 0, got {length!r}, "
-                         f"{diameter!r}")
-    e = math.sqrt(1.0 - (diameter / length) ** 2)
-    log_term = math.log((1.0 + e) / (1.0 - e))
-    a0 = 2.0 * (1.0 - e * e) / e ** 3 * (0.5 * log_term - e)
-    b0 = 1.0 / (e * e) - (1.0 - e * e) / (2.0 * e ** 3) * log_term
-    return a0 / (2.0 - a0), b0 / (2.0 - b0)
-
-
-def spheroid_added_inertia(length: float, diameter: float) -> float:
-    """Added moment of inertia of a prolate spheroid turning about a diameter, as a fraction of
-    the moment of inertia of its displaced fluid (Lamb, section 373: k' = e^4 (b0 - a0) /
-    ((2 - e^2) (2 e^2 - (2 - e^2) (b0 - a0))))."""
-    if not (length > diameter > 0):
-        raise ValueError(f"a prolate spheroid needs length > diameter > 0, got {length!r}, "
-                         f"{diameter!r}")
-    e2 = 1.0 - (diameter / length) ** 2
-    e = math.sqrt(e2)
-    log_term = math.log((1.0 + e) / (1.0 - e))
-    a0 = 2.0 * (1.0 - e2) / e ** 3 * (0.5 * log_term - e)
-    b0 = 1.0 / e2 - (1.0 - e2) / (2.0 * e ** 3) * log_term
-    d = b0 - a0
-    return e2 * e2 * d / ((2.0 - e2) * (2.0 * e2 - (2.0 - e2) * d))
-
-
-@dataclass(frozen=True)
-class Inertia:
-    """The whale's mass and its added masses along x (surge) and z (heave), kg."""
-
-    mass_kg: float
-    added_surge_kg: float
-    added_heave_kg: float
-
-    @classmethod
-    def of_body(cls, volume_m3: float, length_m: float, diameter_m: float,
-                density: float) -> Inertia:
-        """A neutrally buoyant whale of this enclosed volume; added masses from the prolate
-        spheroid of its length and largest diameter, on its own volume."""
-        k1, k2 = spheroid_added_mass(length_m, diameter_m)
-        mass = density * volume_m3
-        return cls(mass, k1 * mass, k2 * mass)
-
-    def added(self, axis: int) -> float:
-        return self.added_surge_kg if axis == SURGE else self.added_heave_kg
 
 
 @dataclass(frozen=True)
@@ -223,11 +171,12 @@ class SurgeFrame:
     def _approach(self, time: float, force: np.ndarray):
         """A step of the approach: the speed prescribed (:meth:`Schedule.approach`), the
         acceleration the one that reaches it over the step, the forces only logged."""
+        assert self.t is not None       # answer() served a time before
+        dt = time - self.t
         new = np.zeros(3)
-        new[SURGE] = (self.schedule.approach(time, self.start_speed)
-                      - self.velocity[SURGE]) / (time - self.t)
+        new[SURGE] = (self.schedule.approach(time, self.start_speed) - self.velocity[SURGE]) / dt
         self.previous_acceleration, self.acceleration = self.acceleration, new
-        self.velocity = self.velocity + self.acceleration * (time - self.t)
+        self.velocity = self.velocity + self.acceleration * dt
         self.t = time
         self._log(force)
         return self._state_now()

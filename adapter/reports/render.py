@@ -195,7 +195,8 @@ def free_figure(frame: dict, loads: dict, period: float, figures: dict):
     low.axhline(0, color="0.7", lw=0.6)
     top.set_ylabel("U (m/s)")
     low.set_ylabel("Fx (N)")
-    low.set_xlabel("time (s); grey: the approach, not measured; lines: the cycles measured")
+    low.set_xlabel("time (s); grey, not measured: the approach and the running mean's first "
+                   "period; lines: the cycles measured")
     top.set_title(f"the free whale: U_sp {figures['speed_m_s']:.3f} m/s, "
                   f"{figures['mean_power_W']:,.0f} W, QPC "
                   f"{figures['quasi_propulsive_efficiency']:.2f}", fontsize=10)
