@@ -18,7 +18,8 @@ one flipper's. Chord along x, thickness along z, span along y:
 - ``unswept``: span along y, the section at y = t l the flipper's section itself;
 - ``swept-fine``: ``swept`` with the wing's cells one level finer (6 instead of 5);
 - ``swept-faceted``: ``swept`` with the surface at the procedural flipper's own resolution
-  (20 nodes around a section, 17 sections), the facets the on-body flipper's STL has.
+  (20 nodes around a section, 17 sections), the facets the on-body flipper's STL has;
+- ``unswept-fine``: ``unswept`` with the wing's cells one level finer.
 
 The tip: the last section (an ellipse) closed by half an ellipsoid reaching
 0.5 min(c, 3 t) beyond it, the extent of :func:`~adapter.body.fins.fin_layers`' tip cap.
@@ -28,7 +29,7 @@ prism layers from 7 mm growing by 1.5, 2 m background cells, surface levels (2 4
 the domain the whale's in metres: 22.5 m ahead, 45 m behind, 22.5 m to the side, above and
 below); the wing is a mesh file without the whale's landmarks, which run-case meshes without
 the flippers' refinement, so the script puts the flippers' rule back into the prepared
-snappyHexMeshDict: the cells within one cell of level 5 (0.0625 m) of the wing at that level,
+snappyHexMeshDict: the cells within one cell of level 5 (0.061 m) of the wing at that level,
 and the near-body box at level 1 grown by the whale's 0.1 L (1.5 m) around the wing. Held
 still (run-case's ``--static-whale``: staticFvMesh, the whale patch fixedValue), from still
 water with the inflow ramped in over 3.85 s, until the mean drag over a period of 7.69 s (the
@@ -36,13 +37,16 @@ whale's stroke period) changes by less than 2 % from one period to the next: the
 stop rule. The scene has ``[rigid]`` enabled with zero amplitudes only so that a mesh file
 without landmarks is accepted; nothing moves.
 
-    nice -n 19 .venv/bin/python scripts/flipper_alone.py [--wings swept unswept swept-fine] \
+    nice -n 19 .venv/bin/python scripts/flipper_alone.py [--wings swept unswept ...] \
         [--out runs/flipper-alone] [--np 2]
 
-Each wing's case is ``<out>/<wing>/case`` (a case that has run is read again, not rerun); its
-figures go to ``<out>/<wing>/figures.json`` and a table is printed. Forces are one flipper's
-(the half domain's own); ``span`` is the force along the wing's span direction (outward, y > 0),
-``normal`` along z.
+(all the wings by default; the plugin library must be built, ``make plugin``, or named by
+``WHALE_PLUGIN_LIB``: without it the case has no ``loads`` for the stop rule). Each wing's
+case is ``<out>/<wing>/case`` (a case that has run is read again, not rerun); its figures go to
+``<out>/<wing>/figures.json`` and a table is printed. Forces are one flipper's (the half
+domain's own); ``span`` is the force along the wing's span direction (outward, y > 0),
+``normal`` along z. Beside another run on this 2-core machine give ``--np 1``: two niced ranks
+wait on each other.
 """
 
 from __future__ import annotations
@@ -71,7 +75,8 @@ SMOOTH = (160, 64, 12, False)
 FACETED = (20, 17, 3, True)
 #: the wings: name -> (swept, the wing's refinement level, its surface's resolution)
 WINGS = {"swept": (True, 5, SMOOTH), "unswept": (False, 5, SMOOTH),
-         "swept-fine": (True, 6, SMOOTH), "swept-faceted": (True, 5, FACETED)}
+         "swept-fine": (True, 6, SMOOTH), "swept-faceted": (True, 5, FACETED),
+         "unswept-fine": (False, 6, SMOOTH)}
 #: the default whale (scene default.toml): length, gliding speed, stroke period
 WHALE_LENGTH_M = 15.0
 SPEED = 1.3
@@ -212,20 +217,22 @@ def prepare(wing: str, out: Path, ranks: int) -> Path:
     return case
 
 
-def run(case: Path, ranks: int) -> float:
-    """Mesh and run the case until the gliding stop rule holds; the wall time (s) spent."""
+def run(case: Path, ranks: int) -> float | None:
+    """Mesh and run the case until the gliding stop rule holds; the wall time (s) spent, None
+    when the case had run already (it is only read again)."""
     from adapter.foam.case import Case
     from adapter.foam.freerun import steady_gliding
     from adapter.foam.mesh import mesh_case
     from adapter.foam.run import run_case
 
+    held = Case(case)
+    rule = steady_gliding(PERIOD_S, float(held.record["periodic_tolerance"]), PERIOD_S)
+    if (case / "constant" / "polyMesh" / "owner").exists() and held.has_summary and rule(case):
+        return None
     t0 = time.perf_counter()
     if not (case / "constant" / "polyMesh" / "owner").exists():
         mesh_case(case, ranks=1)
-    held = Case(case)
-    rule = steady_gliding(PERIOD_S, float(held.record["periodic_tolerance"]), PERIOD_S)
-    if not (held.has_summary and rule(case)):
-        run_case(case, ranks=ranks, stop_when=rule, progress=False)
+    run_case(case, ranks=ranks, stop_when=rule, progress=False)
     return time.perf_counter() - t0
 
 
@@ -302,10 +309,11 @@ def figures(wing: str, case: Path, wall_s: float) -> dict:
 
 
 def pressure_strips(case: Path, time: str, span: np.ndarray, strips: int = 4) -> list[dict]:
-    """One flipper's pressure force by span strip (root first), as scripts/region_pressure.py
-    splits the on-body flipper: per strip its pressure force (N, x and along ``span``), its
-    chord along x and the area-weighted Cp of the chord bands 0-0.1-0.3-0.5-0.7-0.9-1 (0 the
-    leading edge); the face pressure the owner cell's (the wall's p is zeroGradient)."""
+    """One flipper's pressure force by span strip (root first, strips of equal distance from
+    the root along the span), as scripts/region_pressure.py splits the on-body flipper: per
+    strip its pressure force (N, x and along ``span``), its x extent and the area-weighted Cp
+    of the chord bands 0-0.1-0.3-0.5-0.7-0.9-1 (0 the leading edge); the face pressure the
+    owner cell's (the wall's p is zeroGradient)."""
     from region_pressure import CHORD_BANDS, read_list
 
     from adapter.foam.foamascii import (
@@ -327,7 +335,7 @@ def pressure_strips(case: Path, time: str, span: np.ndarray, strips: int = 4) ->
     p = read_list(case / time / "p")[owner] * 1025.0
     q = 0.5 * 1025.0 * SPEED**2
     force = p[:, None] * sf
-    along = centre @ span
+    along = centre[:, 1] / span[1]             # the span station's distance from the root
     edges = np.linspace(along.min(), along.max() + 1e-9, strips + 1)
     out = []
     for lo, hi in zip(edges[:-1], edges[1:], strict=True):
@@ -376,9 +384,10 @@ def table(rows: list[dict]) -> str:
     line("area with y+ <= 300", lambda r: r["yplus"]["area_le_300"], "{:.1%}")
     line("period-to-period change", lambda r: r["period_change"], "{:.2%}")
     line("window (s)", lambda r: "{:.2f}-{:.2f}".format(*r["window_s"]), "{}")
-    line("steps, pimpleFoam wall (s)", lambda r: f"{r['steps']}, {r['flow_wall_s']:.0f}",
-         "{}")
-    line("wall, mesh + run (s)", lambda r: r["wall_s"], "{:.0f}")
+    line("steps, pimpleFoam wall (s)", lambda r: None if r["flow_wall_s"] is None
+         else f"{r['steps']}, {r['flow_wall_s']:.0f}", "{}")
+    line("wall, mesh + run (s)", lambda r: None if math.isnan(r["wall_s"]) else r["wall_s"],
+         "{:.0f}")
     return "\n".join(lines)
 
 
@@ -387,8 +396,8 @@ def strips_text(row: dict) -> str:
     lines = [f"{row['wing']}: pressure force by span strip, root first; Cp in chord bands "
              "0-0.1-0.3-0.5-0.7-0.9-1 (0 the leading edge)"]
     for st in row.get("strips", []):
-        lines.append(f"  {st['span_m'][0]:.2f}-{st['span_m'][1]:.2f} m, chord {st['chord_m']:.2f}"
-                     f" m: x {st['pressure_x_N']:+6.1f} N, along the span "
+        lines.append(f"  {st['span_m'][0]:.2f}-{st['span_m'][1]:.2f} m, x extent "
+                     f"{st['chord_m']:.2f} m: x {st['pressure_x_N']:+6.1f} N, along the span "
                      f"{st['pressure_span_N']:+6.1f} N; Cp "
                      + " ".join(f"{v:+.2f}" for v in st["cp_bands"]))
     return "\n".join(lines)
@@ -398,7 +407,8 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--wings", nargs="+", choices=list(WINGS), default=list(WINGS))
     p.add_argument("--out", type=Path, default=ROOT / "runs" / "flipper-alone")
-    p.add_argument("--np", type=int, default=2, dest="ranks")
+    p.add_argument("--np", type=int, default=2, dest="ranks",
+                   help="MPI ranks (1 beside another run: 2 niced ranks wait on each other)")
     p.add_argument("--prepare-only", action="store_true")
     args = p.parse_args(argv)
     from adapter.foam.dictionaries import plugin_lib
@@ -414,8 +424,11 @@ def main(argv=None) -> int:
         if args.prepare_only:
             continue
         wall = run(case, args.ranks)
+        saved = args.out / wing / "figures.json"
+        if wall is None:        # read again: the wall time of the run that made it
+            wall = json.loads(saved.read_text())["wall_s"] if saved.is_file() else math.nan
         result = figures(wing, case, wall)
-        (args.out / wing / "figures.json").write_text(json.dumps(result, indent=1))
+        saved.write_text(json.dumps(result, indent=1))
         rows.append(result)
         print(table(rows), flush=True)
         print(strips_text(result), flush=True)
