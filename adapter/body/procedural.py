@@ -152,6 +152,14 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
     return points, faces, lm
 
 
+def flipper_fin(length: float = 15.0, nodes: int = 11272, sections: str = "naca") -> Fin:
+    """The left flipper of :func:`procedural_whale` as it is built (root, direction, length,
+    chord and thickness laws, tip rounding), for a study of the flipper on its own."""
+    n_phi, s, _, counts, _ = _resolution(nodes)
+    rings = _section(s, n_phi, length)
+    return _flipper(rings, s, n_phi, counts, length, sections == "naca")[0]
+
+
 def _resolution(nodes: int):
     """The body's and the fins' node counts for ``nodes`` in all: (n_phi, the ring stations
     s, n_x, the flipper's (patch a, patch b, layers), the flukes')."""
