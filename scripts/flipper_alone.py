@@ -66,6 +66,8 @@ sys.path.insert(0, str(ROOT / "scripts"))
 
 from adapter.body.fins import TIP_ROUND, foil_half_thickness  # noqa: E402
 from adapter.body.procedural import flipper_fin  # noqa: E402
+from adapter.foam.summary import finite  # noqa: E402
+from adapter.jsonfiles import write_json  # noqa: E402
 
 #: the wing's surface: (nodes around a section, sections root to tip, rings of the tip cap,
 #: sections spaced evenly in t or denser toward the tip)
@@ -428,7 +430,7 @@ def main(argv=None) -> int:
         if wall is None:        # read again: the wall time of the run that made it
             wall = json.loads(saved.read_text())["wall_s"] if saved.is_file() else math.nan
         result = figures(wing, case, wall)
-        saved.write_text(json.dumps(result, indent=1))
+        write_json(saved, finite(result))
         rows.append(result)
         print(table(rows), flush=True)
         print(strips_text(result), flush=True)
