@@ -204,7 +204,7 @@ class Case:
     periodic_tolerance: float = field(default=0.02, metadata={"check": _positive})
     #: the largest non-orthogonality (deg) snappyHexMesh's layer stage may leave (its relaxed
     #: limit: the moving mesh starts from it and the stroke adds a few degrees)
-    layer_non_orthogonality: float = field(default=75.0, metadata={"check": _within(0, 90, "()")})
+    layer_non_orthogonality: float = field(default=69.0, metadata={"check": _within(0, 90, "()")})
     #: stop before cells invert: largest non-orthogonality (deg) allowed
     max_non_orthogonality: float = field(default=80.0, metadata={"check": _within(0, 90, "()")})
     #: prism layers on the whale (0: none), the first layer's thickness (m), their ratio
