@@ -64,7 +64,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from adapter.body.fins import TIP_ROUND, foil_half_thickness  # noqa: E402
+from adapter.body.fins import fin_section  # noqa: E402
 from adapter.body.procedural import flipper_fin  # noqa: E402
 from adapter.foam.summary import finite  # noqa: E402
 from adapter.jsonfiles import write_json  # noqa: E402
@@ -93,19 +93,10 @@ ON_BODY = {"drag_N": 85.5, "pressure_N": 72.8, "viscous_N": 12.6,
 
 def section(fin, t: float, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(chord fraction, signed half-thickness over chord) of the flipper's section at span
-    station ``t`` for the angles ``alpha`` around it (pi: the leading edge, 0: the trailing
-    edge), as :func:`adapter.body.fins.fin_layers`' ``section(t)``: the NACA four-digit foil
-    (chord fraction 1 - cos(pi tau / 2)) turning into an ellipse of the same t/c over the
-    outer :data:`~adapter.body.fins.TIP_ROUND` of the span."""
-    tau = 1 - np.abs(np.angle(np.exp(1j * alpha))) / np.pi
-    xc_foil = 1 - np.cos(0.5 * np.pi * tau)
-    upper = np.sign(np.round(np.sin(alpha), 12))
-    w = float(np.clip((t - (1 - TIP_ROUND)) / TIP_ROUND, 0.0, 1.0))
-    w = w * w * (3 - 2 * w)
-    tc = fin.thickness_ratio(t)
-    xc = (1 - w) * xc_foil + w * 0.5 * (1 + np.cos(alpha))
-    half = (1 - w) * foil_half_thickness(xc, tc) + w * tc * 0.5 * np.abs(np.sin(alpha))
-    return xc, upper * half
+    station ``t`` for the angles ``alpha`` around it: the whale's own
+    (:func:`adapter.body.fins.fin_section`), its upper side positive."""
+    xc, half = fin_section(fin, t, alpha)
+    return xc, np.sign(np.round(np.sin(alpha), 12)) * half
 
 
 def wing_surface(fin, swept: bool, around: int = 160, stations: int = 64,
@@ -114,8 +105,7 @@ def wing_surface(fin, swept: bool, around: int = 160, stations: int = 64,
 
     ``around`` nodes per section, ``stations`` sections from root to tip (evenly in t when
     ``even``, else denser toward the tip, where the chord closes), ``cap_rings`` rings of the
-    tip cap; the half y >= 0 mirrored
-    exactly, the root section on y = 0."""
+    tip cap; the half y >= 0 mirrored exactly, the root section on y = 0."""
     d = fin.direction / np.linalg.norm(fin.direction)
     sin_s = float(d[0]) if swept else 0.0
     cos_s = math.sqrt(1 - sin_s**2)
@@ -238,20 +228,6 @@ def run(case: Path, ranks: int) -> float | None:
     return time.perf_counter() - t0
 
 
-def half_loads(case: Path) -> dict:
-    """The half domain's own loads.dat columns (one flipper: not made the whole body's)."""
-    rows, header = {}, None
-    for f in sorted((case / "postProcessing" / "loads").glob("*/loads.dat")):
-        for line in f.read_text().splitlines():
-            if line.startswith("# Time"):
-                header = line[1:].split()
-            elif not line.startswith("#") and header and len(line.split()) == len(header):
-                values = [float(v) for v in line.split()]
-                rows[values[0]] = values
-    data = np.array([rows[t] for t in sorted(rows)])
-    return {h: data[:, k] for k, h in enumerate(header)}
-
-
 def figures(wing: str, case: Path, wall_s: float) -> dict:
     """One wing's figures: one flipper's forces over the gliding window (the last whole
     period after the first), y+, the mesh, the estimate."""
@@ -259,12 +235,12 @@ def figures(wing: str, case: Path, wall_s: float) -> dict:
     from adapter.body.planform import mirrored_planform, triangle_areas
     from adapter.foam.case import Case
     from adapter.foam.estimates import fin_estimate
-    from adapter.foam.loads import cycle_stats
-    from adapter.foam.parallel import reconstruct_new_times
+    from adapter.foam.loads import cycle_stats, read_loads
+    from adapter.foam.parallel import reconstruct_latest_time
     from adapter.foam.yplus import yplus_stats
 
     swept, level, _ = WINGS[wing]
-    data = half_loads(case)
+    data = read_loads(case, whole=False)      # one flipper: the half's own columns
     t = data["Time"]
     st = cycle_stats(t, data["total:Fx"], data["total:P"], PERIOD_S, PERIOD_S)
     a = st.starts[-1]
@@ -278,7 +254,7 @@ def figures(wing: str, case: Path, wall_s: float) -> dict:
     d = fin.direction / np.linalg.norm(fin.direction)
     span = np.array([d[0], math.sqrt(1 - d[0] ** 2), 0.0]) if swept else np.array([0, 1.0, 0])
     record = Case(case).record
-    reconstruct_new_times(case)
+    reconstruct_latest_time(case)          # the strips read the last time's p
     yp = yplus_stats(case)
     tri = read_stl_solids(case / "constant" / "triSurface" / "whale_regions.stl")["body"]
     plan = mirrored_planform(tri, 0.0)
@@ -314,27 +290,11 @@ def pressure_strips(case: Path, time: str, span: np.ndarray, strips: int = 4) ->
     """One flipper's pressure force by span strip (root first, strips of equal distance from
     the root along the span), as scripts/region_pressure.py splits the on-body flipper: per
     strip its pressure force (N, x and along ``span``), its x extent and the area-weighted Cp
-    of the chord bands 0-0.1-0.3-0.5-0.7-0.9-1 (0 the leading edge); the face pressure the
-    owner cell's (the wall's p is zeroGradient)."""
-    from region_pressure import CHORD_BANDS, read_list
+    of the chord bands 0-0.1-0.3-0.5-0.7-0.9-1 (0 the leading edge)."""
+    from region_pressure import CHORD_BANDS, patch_pressure
 
-    from adapter.foam.foamascii import (
-        face_area_vectors,
-        mesh_file,
-        read_boundary,
-        read_faces,
-        read_points,
-    )
-
-    b = read_boundary(mesh_file(case, None, "boundary"))["whale"]
-    s0, n = b["startFace"], b["nFaces"]
-    faces = read_faces(mesh_file(case, None, "faces"))[s0:s0 + n]
-    owner = read_list(mesh_file(case, None, "owner")).astype(int)[s0:s0 + n]
-    pts = read_points(mesh_file(case, None, "points"))
-    sf = face_area_vectors(pts, faces)          # out of the fluid, into the wing
+    sf, centre, p = patch_pressure(case, time, 1025.0)      # sf: out of the fluid
     area = np.linalg.norm(sf, axis=1)
-    centre = np.array([pts[f].mean(axis=0) for f in faces])
-    p = read_list(case / time / "p")[owner] * 1025.0
     q = 0.5 * 1025.0 * SPEED**2
     force = p[:, None] * sf
     along = centre[:, 1] / span[1]             # the span station's distance from the root
@@ -357,21 +317,20 @@ def table(rows: list[dict]) -> str:
     """The figures side by side with the on-body flipper's."""
     lines = ["| | " + " | ".join(r["wing"] for r in rows) + " | on the body |",
              "|---" * (len(rows) + 2) + "|"]
-    body = {"drag_N": ON_BODY["drag_N"], "pressure_N": ON_BODY["pressure_N"],
-            "viscous_N": ON_BODY["viscous_N"]}
 
     def line(label, get, fmt, on_body=""):
         cells = [fmt.format(get(r)) if get(r) is not None else "" for r in rows]
         lines.append(f"| {label} | " + " | ".join(cells) + f" | {on_body} |")
 
-    line("drag, one flipper (N)", lambda r: r["drag_N"], "{:.1f}", f"{body['drag_N']}")
-    line("  pressure (N)", lambda r: r["pressure_N"], "{:.1f}", f"{body['pressure_N']}")
-    line("  viscous (N)", lambda r: r["viscous_N"], "{:.1f}", f"{body['viscous_N']}")
+    line("drag, one flipper (N)", lambda r: r["drag_N"], "{:.1f}", f"{ON_BODY['drag_N']}")
+    line("  pressure (N)", lambda r: r["pressure_N"], "{:.1f}", f"{ON_BODY['pressure_N']}")
+    line("  viscous (N)", lambda r: r["viscous_N"], "{:.1f}", f"{ON_BODY['viscous_N']}")
     line("force (Fx, Fy, Fz) (N)", lambda r: "({:.1f}, {:.1f}, {:.1f})".format(*r["force_N"]),
-         "{}", "(85.5, 91.8, -39.1)")
+         "{}", "({:.1f}, {:.1f}, {:.1f})".format(*ON_BODY["force_N"]))
     line("along the span (N)", lambda r: r["span_N"], "{:.1f}", "~128")
     line("normal, Fz (N)", lambda r: r["normal_N"], "{:.1f}")
-    line("estimate (N)", lambda r: r["estimate"]["estimate_N"], "{:.1f}", "30.7")
+    line("estimate (N)", lambda r: r["estimate"]["estimate_N"], "{:.1f}",
+         str(ON_BODY["estimate_N"]))
     line("drag / estimate", lambda r: r["ratio"], "{:.2f}", "2.78")
     line("wetted area, one flipper (m2)", lambda r: r["wetted_area_m2"], "{:.2f}", "5.62")
     line("mean chord along x (m), Re", lambda r: "{:.2f}, {:.2g}".format(

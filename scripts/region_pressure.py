@@ -53,6 +53,19 @@ def read_list(path) -> np.ndarray:
     return _numbers(text[start:_matching(text, start - 1)])
 
 
+def patch_pressure(case, time: str, rho: float, patch: str = "whale") -> tuple:
+    """(face area vectors out of the fluid, face centres, pressure in Pa) on ``patch`` at a
+    written time of a reconstructed case, on the mesh of constant/polyMesh (a gliding case's
+    static mesh); the face pressure is the owner cell's (the patch is zeroGradient)."""
+    b = read_boundary(mesh_file(case, None, "boundary"))[patch]
+    s0, n = b["startFace"], b["nFaces"]
+    faces = read_faces(mesh_file(case, None, "faces"))[s0:s0 + n]
+    owner = read_list(mesh_file(case, None, "owner")).astype(int)[s0:s0 + n]
+    pts = read_points(mesh_file(case, None, "points"))
+    centre = np.array([pts[f].mean(axis=0) for f in faces])
+    return face_area_vectors(pts, faces), centre, read_list(f"{case}/{time}/p")[owner] * rho
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("case", help="a reconstructed case (run-case's <case>/gliding)")
@@ -61,15 +74,9 @@ def main(argv=None) -> int:
     ap.add_argument("--speed", type=float, default=1.3, help="flow speed for Cp (m/s)")
     args = ap.parse_args(argv)
     case, time = args.case, args.time
-    b = read_boundary(mesh_file(case, None, "boundary"))["whale"]
-    s0, n = b["startFace"], b["nFaces"]
-    faces = read_faces(mesh_file(case, None, "faces"))[s0:s0 + n]
-    owner = read_list(mesh_file(case, None, "owner")).astype(int)[s0:s0 + n]
-    pts = read_points(mesh_file(case, None, "points"))
-    sf = face_area_vectors(pts, faces)
+    sf, centre, p = patch_pressure(case, time, args.rho)
+    n = len(p)
     area = np.linalg.norm(sf, axis=1)
-    centre = np.array([pts[f].mean(axis=0) for f in faces])
-    p = read_list(f"{case}/{time}/p")[owner] * args.rho
     q = 0.5 * args.rho * args.speed ** 2
     fx = p * sf[:, 0]          # Sf points out of the fluid, into the whale
 

@@ -72,6 +72,28 @@ def patch_loop(f: Fin, n_phi: int) -> tuple[list, list]:
     return loop, inner
 
 
+def fin_section(f: Fin, t: float, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(chord fraction, half-thickness over chord) of the fin's section at span station ``t``
+    for nodes at angles ``alpha`` around it (pi: the leading edge, 0: the trailing edge): the
+    NACA four-digit foil with chord fraction 1 - cos(pi tau / 2), tau the share of the way
+    from the leading to the trailing edge, which puts the nodes closest together at the round
+    leading edge and evenly toward the sharp trailing edge. Toward the tip the sections turn
+    into ellipses of the same t/c (over the outer ``f.tip_round`` of the span): the tip cap
+    joins the last section with faces the stroke does not fold, which a sharp trailing edge
+    and a clustered leading edge would make slivers."""
+    tau = 1 - np.abs(np.angle(np.exp(1j * alpha))) / np.pi
+    xc_foil = 1 - np.cos(0.5 * np.pi * tau)
+    xc_ellipse = 0.5 * (1 + np.cos(alpha))
+    half_ellipse = 0.5 * np.abs(np.sin(alpha))
+    w = 1.0 if f.tip_round >= 1 else float(
+        np.clip((t - (1 - f.tip_round)) / f.tip_round, 0.0, 1.0))
+    w = w * w * (3 - 2 * w)
+    tc = f.thickness_ratio(t)
+    xc = (1 - w) * xc_foil + w * xc_ellipse
+    half = (1 - w) * foil_half_thickness(xc, tc) + w * tc * half_ellipse
+    return xc, half
+
+
 def fin_layers(f: Fin, loop_xyz: np.ndarray, inner_rc: list) -> tuple[np.ndarray, np.ndarray]:
     """Positions of the extruded loops (layers, P, 3) and of the moved interior (tip) nodes."""
     P = len(loop_xyz)
@@ -81,30 +103,10 @@ def fin_layers(f: Fin, loop_xyz: np.ndarray, inner_rc: list) -> tuple[np.ndarray
     e2 = np.cross(d, e1)
     # loop index -> angle alpha around the section: the long sides (along the body) map to
     # the chord's upper and lower faces, the short sides to its leading edge (alpha = pi, head
-    # side) and trailing edge (alpha = 0). The chord fraction 1 - cos(pi tau / 2), tau the
-    # share of the way from the leading to the trailing edge, puts the nodes closest together
-    # at the round leading edge and evenly toward the sharp trailing edge, whose faces would
-    # otherwise be slivers that the stroke's small differences of motion fold
+    # side) and trailing edge (alpha = 0); the sections' shape: fin_section
     step = 2 * np.pi / P
     alpha = np.pi + (f.b / 2 + np.arange(P)) * step
-    tau = 1 - np.abs(np.angle(np.exp(1j * alpha))) / np.pi
-    xc_foil = 1 - np.cos(0.5 * np.pi * tau)
     upper = np.sign(np.round(np.sin(alpha), 12))
-    # toward the tip the sections turn into ellipses of the same t/c (over the outer
-    # TIP_ROUND of the span): the tip cap joins the last section with faces the stroke does
-    # not fold, which a sharp trailing edge and a clustered leading edge would make slivers
-    xc_ellipse = 0.5 * (1 + np.cos(alpha))
-    half_ellipse = 0.5 * np.abs(np.sin(alpha))
-
-    def section(t):
-        """(chord fraction, half-thickness over chord) of the loop's nodes at t."""
-        w = 1.0 if f.tip_round >= 1 else float(
-            np.clip((t - (1 - f.tip_round)) / f.tip_round, 0.0, 1.0))
-        w = w * w * (3 - 2 * w)
-        tc = f.thickness_ratio(t)
-        xc = (1 - w) * xc_foil + w * xc_ellipse
-        half = (1 - w) * foil_half_thickness(xc, tc) + w * tc * half_ellipse
-        return xc, half
     # which face is which: the first long side runs at phi0, compare with the other side
     side = np.sign((loop_xyz[: f.a + 1].mean(0) - loop_xyz[f.a + f.b : 2 * f.a + f.b].mean(0)) @ e2)
     side = side if side != 0 else 1.0
@@ -119,7 +121,7 @@ def fin_layers(f: Fin, loop_xyz: np.ndarray, inner_rc: list) -> tuple[np.ndarray
     def ring(t):
         c = centre(t)
         ch = f.chord(t)
-        xc, half = section(t)
+        xc, half = fin_section(f, t, alpha)
         return (c + ch * (xc - 0.5)[:, None] * e1
                 - side * (upper * half * ch)[:, None] * e2)
 

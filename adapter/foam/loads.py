@@ -28,9 +28,10 @@ LOADS_NAME = "loads"
 BODY_DENSITY = 1025.0
 
 
-def read_loads(case_dir, name: str = LOADS_NAME) -> dict:
+def read_loads(case_dir, name: str = LOADS_NAME, whole: bool = True) -> dict:
     """Columns of every ``loads.dat`` of a case, merged over restarts (a later file wins for a
-    time present twice): ``{"Time": (T,), "total:Fx": (T,), ...}``; empty when none."""
+    time present twice): ``{"Time": (T,), "total:Fx": (T,), ...}``; empty when none. A
+    half-domain case's are the whole body's unless ``whole`` is False (the half's own)."""
     base = Path(case_dir) / "postProcessing" / name
     rows: dict = {}
     header: list | None = None
@@ -55,7 +56,7 @@ def read_loads(case_dir, name: str = LOADS_NAME) -> dict:
     data = np.array([rows[t] for t in sorted(rows)])
     columns = {h: data[:, k] for k, h in enumerate(header)}
     # a half-domain case's loads are the whole body's from here on (adapter/foam/symmetry.py)
-    return symmetry.whole_body(columns) if symmetry.is_half(case_dir) else columns
+    return symmetry.whole_body(columns) if whole and symmetry.is_half(case_dir) else columns
 
 
 @dataclass(frozen=True)

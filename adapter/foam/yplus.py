@@ -125,10 +125,8 @@ def patch_yplus(case: Path, time: str, patch: str = "whale") -> tuple:
     """(y+ per face, face areas, the time folder's name) on ``patch`` at ``time``: from the case
     folder when it holds the time's y+, else from every processor folder, joined (each holds
     its share of the patch; a statistic of the area does not depend on the faces' order)."""
-    folders = [case]
-    if not any(_holds(d, "yPlus") for t, d in time_dirs(case)
-               if abs(t - float(time)) <= 1e-9 * max(1.0, abs(t))):
-        folders = processor_dirs(case) or [case]
+    own = _find_time_dir(case, time)
+    folders = [case] if own is not None and _holds(own, "yPlus") else processor_dirs(case) or [case]
     values, areas = [], []
     for folder in folders:
         tdir = _time_dir(folder, time)
@@ -143,13 +141,21 @@ def patch_yplus(case: Path, time: str, patch: str = "whale") -> tuple:
 
 
 def _time_dir(case: Path, time: str) -> Path:
+    d = _find_time_dir(case, time)
+    if d is None:
+        raise CaseError(f"{case}: no time folder {time}")
+    return d
+
+
+def _find_time_dir(case: Path, time: str) -> Path | None:
+    """The time folder named ``time`` or of its value (``1`` for ``1.0``), else None."""
     d = case / str(time)
     if d.is_dir():
         return d
     for value, p in time_dirs(case):
         if abs(value - float(time)) <= 1e-9 * max(1.0, abs(value)):
             return p
-    raise CaseError(f"{case}: no time folder {time}")
+    return None
 
 
 # --------------------------------------------------------------------------------------------
