@@ -15,8 +15,9 @@ light body with the added mass moved to the left, stable whatever m_a / m (an er
 estimate of m_a only lags the reaction by one step).
 
 At the release the frame's speed may first be brought, over ``approach_s`` and with the forces
-not heeded, from the tethered speed to an estimate of the self-propelled one (``free.approach``,
-:func:`release_speed`): a half-cosine in time, the body force its derivative.
+not heeded, from the tethered speed to an estimate of the self-propelled one
+(``free.approach_cycles``, :func:`release_speed`): a half-cosine in time, the body force its
+derivative.
 
 Early on a lighter mass may speed the approach to the self-propelled state (``free.light``):
 the force's running mean over the last stroke period acts on ``light * (m + m_a)`` while the
@@ -152,12 +153,15 @@ class SurgeFrame:
             return self._state_now()
         force = (np.asarray(request.pressure_force, float)
                  + np.asarray(request.viscous_force, float)) * self.force_scale
-        if self.schedule.approach_s > 0 and time <= self.schedule.free_from() + 1e-12:
-            return self._approach(time, force)
-        new = (self._acceleration(force, self.t) if np.all(np.isfinite(force[list(self.axes)]))
-               else self.acceleration.copy())
+        approaching = self.schedule.approach_s > 0 and time <= self.schedule.free_from() + 1e-12
+        if approaching:
+            new = self._approach_acceleration(time)
+        elif np.all(np.isfinite(force[list(self.axes)])):
+            new = self._acceleration(force, self.t)
+        else:
+            new = self.acceleration.copy()
         self.previous_acceleration, self.acceleration = self.acceleration, new
-        if self.pitch is not None:
+        if self.pitch is not None and not approaching:
             moment = (np.asarray(request.pressure_moment, float)
                       + np.asarray(request.viscous_moment, float)) * self.force_scale
             about = moment[1] - float(np.cross(self.pitch.centre, force)[1])
@@ -168,18 +172,14 @@ class SurgeFrame:
         self._log(force)
         return self._state_now()
 
-    def _approach(self, time: float, force: np.ndarray):
-        """A step of the approach: the speed prescribed (:meth:`Schedule.approach`), the
-        acceleration the one that reaches it over the step, the forces only logged."""
+    def _approach_acceleration(self, time: float) -> np.ndarray:
+        """The acceleration over a step of the approach: the one that reaches its prescribed
+        speed (:meth:`Schedule.approach`) at ``time``; the forces are not heeded."""
         assert self.t is not None       # answer() served a time before
-        dt = time - self.t
         new = np.zeros(3)
-        new[SURGE] = (self.schedule.approach(time, self.start_speed) - self.velocity[SURGE]) / dt
-        self.previous_acceleration, self.acceleration = self.acceleration, new
-        self.velocity = self.velocity + self.acceleration * dt
-        self.t = time
-        self._log(force)
-        return self._state_now()
+        new[SURGE] = (self.schedule.approach(time, self.start_speed)
+                      - self.velocity[SURGE]) / (time - self.t)
+        return new
 
     @property
     def body_acceleration(self) -> np.ndarray:
