@@ -48,6 +48,8 @@ class Geometry:
     flipper_root: str = field(default="foil", metadata={"choices": ("foil", "rectangle")})
     #: the flukes' root on the tail stock: "foil" (the root section's footprint) or "rectangle"
     fluke_root: str = field(default="rectangle", metadata={"choices": ("foil", "rectangle")})
+    #: false: the procedural body without its flippers (their drag as a difference of two runs)
+    flippers: bool = True
     landmarks: dict = field(default_factory=dict)  #: a mesh file's LANDMARKS, its coordinates (m)
     landmark_tolerance: float = field(default=0.01, metadata={"check": _positive})
 

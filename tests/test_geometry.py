@@ -166,3 +166,25 @@ def test_landmark_off_the_body_is_named(smoke_surface, tmp_path):
 def test_too_coarse_is_refused():
     with pytest.raises(GeometryError, match="too coarse"):
         procedural_whale(15.0, 100)
+
+
+def test_whale_without_flippers_is_the_same_tube_closed_on_the_flank():
+    """geometry.flippers = false (the appendage drag as a difference of two runs): the flank
+    is closed by the body's own quads where the flippers grew, every other node is the
+    flippered whale's, and the flipper landmarks sit on the flank at the root's station
+    (docs/geometry.md: s = 0.31, low on the side)."""
+    p0, f0, lm0, r0 = procedural_whale(15.0, 1200, with_regions=True, flipper_root="rectangle")
+    p1, f1, lm1, r1 = procedural_whale(15.0, 1200, with_regions=True, flipper_root="rectangle",
+                                       flippers=False)
+    validate_surface(p1, f1, 15.0)
+    assert not any((r == 1).any() for r in r1)     # no face is a flipper's
+    assert any((r == 1).any() for r in r0)
+    # the flipperless whale's nodes are the flippered one's, but the two patches' interiors
+    # (moved to the tips there) and the fins' layers (none here)
+    same = np.all(np.isclose(p1[:, None, :], p0[None, :, :], atol=1e-12), axis=2).any(axis=1)
+    moved = np.flatnonzero(~same)
+    assert 0 < len(moved) <= 2 * 8    # at most the interiors of two 8 x 2 patches
+    fl = p1[lm1["flipper_left"]]
+    assert fl[0] / 15.0 == pytest.approx(0.305, abs=0.03) and fl[1] > 0 and fl[2] < 0
+    np.testing.assert_array_equal(fl * [1, -1, 1], p1[lm1["flipper_right"]])
+    assert lm1["rostrum"] == lm0["rostrum"] and lm1["tail_base"] == lm0["tail_base"]

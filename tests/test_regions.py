@@ -14,6 +14,7 @@ from adapter.errors import GeometryError
 from adapter.foam import loads as ld
 from adapter.foam.case import FLIPPERS_STL, REGIONS_STL, prepare_case
 from adapter.foam.swimrun import COST_ROWS
+from adapter.scene import load_scene
 
 
 def _areas(surface):
@@ -146,3 +147,21 @@ def test_region_figures_add_up_to_the_totals(tmp_path):
     for r in regions.REGIONS:
         assert f"swimming_cost/regions/{r}/power_W" in keys
         assert f"swimming_cost/regions/{r}" in keys      # the gliding drag, beside its estimate
+
+
+def test_a_whale_without_flippers_is_meshed_on_the_flippered_ones_cells(tmp_path):
+    """geometry.flippers = false: the whale STL has no flipper, but snappyHexMesh refines at
+    the flippers it would have (the same cells for the drag difference of the two runs);
+    a body with neither gets no flipper refinement."""
+    fine = load_scene(preset="smoke").replace(case={"flipper_level": 3})
+    prepare_case(fine, tmp_path / "with")
+    prepare_case(fine.replace(geometry={"flippers": False}), tmp_path / "without")
+    def tri(case):
+        return tmp_path / case / "constant" / "triSurface"
+
+    solids = {k: meshfile.read_stl_solids(tri(k) / REGIONS_STL) for k in ("with", "without")}
+    assert len(solids["with"]["flippers"]) > 0 and len(solids["without"]["flippers"]) == 0
+    assert ((tri("with") / FLIPPERS_STL).read_text()
+            == (tri("without") / FLIPPERS_STL).read_text())
+    shm = (tmp_path / "without" / "system" / "snappyHexMeshDict").read_text()
+    assert "flippers" in shm

@@ -28,7 +28,7 @@ def build_surface(scene) -> WhaleSurface:
     if g.source == "procedural":
         points, faces, landmarks, face_regions = procedural_whale(
             g.length_m, g.nodes, g.fluke_span, with_regions=True, sections=g.fin_sections,
-            flipper_root=g.flipper_root, fluke_root=g.fluke_root)
+            flipper_root=g.flipper_root, fluke_root=g.fluke_root, flippers=g.flippers)
         length = g.length_m
         origin = np.zeros(3)
         # orientation flips rows in place: the regions stay parallel to the faces

@@ -98,7 +98,8 @@ def _section(s: np.ndarray, n_phi: int, length: float) -> np.ndarray:
 
 def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float = 0.32,
                      with_regions: bool = False, sections: str = "naca",
-                     flipper_root: str = "foil", fluke_root: str = "rectangle"):
+                     flipper_root: str = "foil", fluke_root: str = "rectangle",
+                     flippers: bool = True):
     """Build the procedural right whale: (points, faces, landmarks), and with ``with_regions``
     a fourth item, ``face_regions``: per face group the region index (:data:`REGIONS`) each
     face was built as: the flipper fins' extrusion layers and tip caps FLIPPERS, the fluke
@@ -111,7 +112,10 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
     :func:`adapter.body.footprint.foil_root`) or ``"rectangle"`` (the paper's way: the
     patch's rectangle, a blunt shoulder at its leading side while the layers blend it into
     the sections). ``fluke_root``: the same for the flukes' root loop on the tail stock's
-    side, the foil cut at the patch's last ring.
+    side, the foil cut at the patch's last ring. ``flippers`` False: the body without them,
+    its flank closed where they grow, the landmarks ``flipper_left`` and ``flipper_right`` the
+    flank nodes at the middle of their root patches (the appendages' drag as the difference of
+    two runs, the towing tank's way: docs/geometry.md).
     """
     if nodes < 400:
         raise GeometryError(f"nodes = {nodes} is too coarse for a whale; use at least 400")
@@ -126,8 +130,9 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
     flipper, fl_loop, fl_inner = _flipper(rings, s, n_phi, (fa, fb, fm), length, naca)
     fluke, ku_loop = _fluke(rings, n_x, n_phi, (ka, kb, km), length, fluke_span, naca)
     body = _Body(rings, n_x, n_phi, length)
-    moved = foil_root(s, n_phi, flipper, _left_half, length) if flipper_root == "foil" else {}
-    body.attach("flipper", flipper, fl_loop, fl_inner, moved)
+    if flippers:
+        moved = foil_root(s, n_phi, flipper, _left_half, length) if flipper_root == "foil" else {}
+        body.attach("flipper", flipper, fl_loop, fl_inner, moved)
     moved = {}
     if fluke_root == "foil":
         moved = foil_root(s, n_phi, fluke, _left_half, length, cut=True)
@@ -138,6 +143,10 @@ def procedural_whale(length: float = 15.0, nodes: int = 11272, fluke_span: float
         return int(cands[np.argmax(points[cands] @ direction)])
 
     tips = body.fin_tips
+    if not flippers:    # the middle of each root patch, on the flank
+        ring, phi = flipper.ring0 + flipper.a // 2, flipper.phi0 + flipper.b // 2
+        tips[("flipper", 1)] = [body.node(ring, phi)]
+        tips[("flipper", -1)] = [body.node(ring, -phi)]
     lm = {
         "rostrum": body.nose,
         "flipper_left": farthest(tips[("flipper", 1)], flipper.direction),

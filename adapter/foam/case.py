@@ -87,11 +87,14 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     if not surface.is_whale:
         # a body without the whale's landmarks has no flippers or flukes to refine at
         scene = scene.replace(case={"flipper_level": 0, "fluke_level": 0})
+    fins = _flippers_to_refine(scene, surface)
+    if fins is None:
+        scene = scene.replace(case={"flipper_level": 0})
     case.mkdir(parents=True, exist_ok=True)
     shutil.copytree(TEMPLATE_DIR, case, dirs_exist_ok=True)
     write_case_scene(given, case, f"scene file {Path(scene_file).resolve()}" if scene_file
                      else f"preset {scene.name}")
-    stl = _write_surfaces(case, surface)
+    stl = _write_surfaces(case, surface, fins)
     pts = np.asarray(surface.points)
     ranks = resolve_ranks(ranks if ranks is not None else scene.case.ranks)
     params = case_parameters(scene, pts.min(axis=0), pts.max(axis=0), ranks=ranks,
@@ -118,9 +121,26 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     return params
 
 
-def _write_surfaces(case: Path, surface) -> Path:
+def _flippers_to_refine(scene, surface):
+    """The surface whose flippers snappyHexMesh refines at (case.flipper_level): the whale's
+    own; for the procedural whale without its flippers (``geometry.flippers = false``) the
+    flippered one's, so that the two runs of a drag difference have the same cells; None for
+    a surface with no flippers to refine at."""
+    if not surface.is_whale:
+        return None
+    if surface.region_areas()["flippers"]:
+        return surface
+    g = scene.geometry
+    if g.source == "procedural" and not g.flippers:
+        from adapter.body.geometry import build_surface
+
+        return build_surface(scene.replace(geometry={"flippers": True}))
+    return None
+
+
+def _write_surfaces(case: Path, surface, fins) -> Path:
     """The whale's surface into ``constant/triSurface/``: ``whale.stl``, its regions and the
-    flippers alone; returns the path of whale.stl."""
+    flippers of ``fins`` alone (:func:`_flippers_to_refine`); returns the path of whale.stl."""
     stl = case / "constant" / "triSurface" / "whale.stl"
     surface.write(stl)
     # the same triangles as three solids (body, flippers, flukes) for the loads' regions; a
@@ -128,8 +148,8 @@ def _write_surfaces(case: Path, surface) -> Path:
     # multi-solid STL and the whale must stay one patch
     surface.write_regions_stl(stl.with_name(REGIONS_STL))
     # the flippers alone: snappyHexMesh's refinement region around them (case.flipper_level)
-    if surface.is_whale:
-        surface.write_regions_stl(stl.with_name(FLIPPERS_STL), only="flippers")
+    if fins is not None:
+        fins.write_regions_stl(stl.with_name(FLIPPERS_STL), only="flippers")
     return stl
 
 
