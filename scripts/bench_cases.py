@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from adapter.foam.case import Case, prepare_case  # noqa: E402
-from adapter.foam.logs import _PLUGIN_RE  # noqa: E402
+from adapter.foam.logs import PLUGIN_EXCHANGE_RE  # noqa: E402
 from adapter.foam.mesh import mesh_case  # noqa: E402
 from adapter.foam.run import run_case  # noqa: E402
 from adapter.jsonfiles import write_json  # noqa: E402
@@ -45,7 +45,7 @@ def exchange_after_first_write(log_text: str) -> float | None:
     requests in between is (n2 m2 - n1 m1) / (n2 - n1): the exchange without the
     step-server's start, which the first write interval carries."""
     reports = [(int(m.group(1)), float(m.group(2))) for line in log_text.splitlines()
-               if (m := _PLUGIN_RE.search(line))]
+               if (m := PLUGIN_EXCHANGE_RE.search(line))]
     if len(reports) < 2 or reports[-1][0] <= reports[0][0]:
         return None
     (n1, m1), (n2, m2) = reports[0], reports[-1]

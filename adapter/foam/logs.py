@@ -31,7 +31,9 @@ _TIME_RE = re.compile(r"^Time = ([-+0-9.eE]+)\s*$")
 _EXEC_RE = re.compile(r"^ExecutionTime = ([-+0-9.eE]+) s")
 _MINVOL_RE = re.compile(r"Min volume = ([-+0-9.eE]+?)\.\s")
 _COURANT_RE = re.compile(r"^Courant Number mean: \S+ max: ([-+0-9.eE]+)")
-_PLUGIN_RE = re.compile(r"stepServer: ([0-9]+) requests, mean ([0-9.]+) us per exchange\s*$")
+#: the plugin's report at every write: its requests and their mean exchange (us)
+PLUGIN_EXCHANGE_RE = re.compile(
+    r"stepServer: ([0-9]+) requests, mean ([0-9.]+) us per exchange\s*$")
 _BROKEN_RE = re.compile(r"\*\*\*(Zero or negative cell volume|Error in face pyramids"
                         r"|Number of non-orthogonality errors)")
 #: the first line of whaleBlendedDisplacement's FatalError (the plugin's meshMotionCheck.C)
@@ -137,7 +139,7 @@ class LogWatch:
             self.exec_times.append(float(m.group(1)))
         elif m := _COURANT_RE.match(line):
             self.max_courant = _nanmax(self.max_courant, float(m.group(1)))
-        elif m := _PLUGIN_RE.search(line):
+        elif m := PLUGIN_EXCHANGE_RE.search(line):
             self.plugin = (int(m.group(1)), float(m.group(2)))
         # (the blended motion's check prints both on one line, OpenFOAM's check on two)
         if m := NON_ORTHOGONALITY_RE.search(line):
