@@ -67,7 +67,7 @@ def gliding(case: Path) -> dict:
 def last_time(case: Path) -> str:
     times = [p.name for p in case.iterdir() if p.is_dir() and _is_number(p.name)]
     if not times:
-        raise SystemExit(f"{case} has no reconstructed time: run reconstructPar -latestTime")
+        raise SystemExit(f"{case} has no written time: run run-case on it first")
     return max(times, key=float)
 
 
@@ -85,7 +85,10 @@ def horizontal_buoyancy(without: Path, whale_stl: Path, rho: float) -> dict:
     their volume (m3) and mean dp/dx (Pa/m)."""
     import pyvista as pv
 
+    from adapter.foam.parallel import reconstruct_latest_time
+
     glide = without / "gliding"
+    reconstruct_latest_time(glide)    # a parallel run's last time, when not yet reconstructed
     foam = glide / "case.foam"
     foam.touch()
     reader = pv.OpenFOAMReader(str(foam))
