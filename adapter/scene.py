@@ -218,6 +218,10 @@ class Case:
     mesh_motion: str = field(default="blended", metadata={"choices": ("blended", "laplacian")})
     motion_inner: float = field(default=1.0 / 30.0, metadata={"check": _non_negative})
     motion_outer: float = field(default=2.0 / 3.0, metadata={"check": _positive})
+    #: the whale points each blended mesh point follows, weighted by inverse distance to the
+    #: power motion_power
+    motion_neighbours: int = field(default=16, metadata={"check": _within(2, 256)})
+    motion_power: float = field(default=3.0, metadata={"check": _within(1, 6)})
     #: on several ranks (docs/cluster.md): launcher ("": mpirun; ``{np}``: the ranks), the
     #: decomposition, snappyHexMesh on the ranks, reconstructPar; symmetry "auto": half domain
     launcher: str = ""

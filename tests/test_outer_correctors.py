@@ -1,6 +1,8 @@
 """PIMPLE's outer and pressure correctors (``case.outer_correctors``,
 ``case.pressure_correctors``) in the case's fvSolution, with the mesh moved once a step, and the
-time scheme (``case.time_scheme``) in its fvSchemes."""
+time scheme (``case.time_scheme``) in its fvSchemes; the blended motion's neighbour count
+and power (``case.motion_neighbours``,
+``case.motion_power``) in its dynamicMeshDict."""
 
 from __future__ import annotations
 
@@ -50,3 +52,19 @@ def test_the_time_scheme_reaches_fvschemes(tmp_path, smoke_scene, smoke_surface)
     assert load_scene(preset="default").case.time_scheme == "backward"
     with pytest.raises(SceneError, match="time_scheme"):
         smoke_scene.replace(case={"time_scheme": "CrankNicolson"})
+
+
+def test_the_motion_weights_reach_dynamicmeshdict(tmp_path, smoke_scene, smoke_surface):
+    for n, power in ((8, 2.0), (48, 3.5)):
+        case = tmp_path / f"case-k{n}"
+        scene = smoke_scene.replace(case={"motion_neighbours": n, "motion_power": power})
+        C.prepare_case(scene, case, surface=smoke_surface)
+        dyn = ParsedParameterFile(str(case / "constant" / "dynamicMeshDict"))
+        coeffs = dyn["whaleBlendedDisplacementCoeffs"]
+        assert int(coeffs["nNeighbours"]) == n and float(coeffs["power"]) == power
+    default = load_scene(preset="default").case
+    assert (default.motion_neighbours, default.motion_power) == (16, 3.0)
+    with pytest.raises(SceneError, match="motion_neighbours"):
+        smoke_scene.replace(case={"motion_neighbours": 1})
+    with pytest.raises(SceneError, match="motion_power"):
+        smoke_scene.replace(case={"motion_power": 0.5})

@@ -160,6 +160,8 @@ def _write_mesh_motion(case: Path, c, p: CaseParameters, static_whale: bool) -> 
         coeffs = d["whaleBlendedDisplacementCoeffs"]
         coeffs["innerDistance"] = p.motion_inner_m
         coeffs["outerDistance"] = p.motion_outer_m
+        coeffs["nNeighbours"] = c.motion_neighbours
+        coeffs["power"] = c.motion_power
         # the new points checked before the mesh moves: an invalid mesh stops the run first
         coeffs["checkMotion"] = "yes"
     else:

@@ -52,7 +52,8 @@ STOP_SIGNAL = signal.SIGUSR1
 #: what to do when the blended mesh motion's check stopped a run (docs/case.md, "Mesh watch")
 MOTION_ADVICE = ("make the whale's motion gentler where the mesh would fold (a smaller fluke "
                  "pitch: [stroke] fluke_angle_scale), spread the mesh motion over more cells "
-                 "([case] motion_inner, motion_outer) or mesh that region differently "
+                 "([case] motion_inner, motion_outer; more neighbours at a lower power: "
+                 "motion_neighbours, motion_power) or mesh that region differently "
                  "(docs/case.md, 'Mesh watch')")
 
 
