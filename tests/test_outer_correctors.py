@@ -1,8 +1,7 @@
 """PIMPLE's outer and pressure correctors (``case.outer_correctors``,
 ``case.pressure_correctors``) in the case's fvSolution, with the mesh moved once a step, and the
-time scheme (``case.time_scheme``) in its fvSchemes; the blended motion's neighbour count
-and power (``case.motion_neighbours``,
-``case.motion_power``) in its dynamicMeshDict."""
+time scheme (``case.time_scheme``) in its fvSchemes; the blended motion's neighbour count and
+power (``case.motion_neighbours``, ``case.motion_power``) in its dynamicMeshDict."""
 
 from __future__ import annotations
 
