@@ -222,6 +222,9 @@ class Case:
     #: power motion_power
     motion_neighbours: int = field(default=16, metadata={"check": _within(2, 256)})
     motion_power: float = field(default=3.0, metadata={"check": _within(1, 6)})
+    #: > 0: the weights are the whale points' areas, within (1 + motion_shell) times the
+    #: distance to the nearest one (0: off, the nearest points' weights alone)
+    motion_shell: float = field(default=0.0, metadata={"check": _non_negative})
     #: on several ranks (docs/cluster.md): launcher ("": mpirun; ``{np}``: the ranks), the
     #: decomposition, snappyHexMesh on the ranks, reconstructPar; symmetry "auto": half domain
     launcher: str = ""

@@ -264,6 +264,53 @@ def test_rotated_wall_turns_the_layer_with_it(tmp_path_factory, rotation):
         assert worst > 1e-3
 
 
+#: ``shell``: the area-weighted blend within (1 + SHELL) times the distance to the wall
+SHELL = 0.5
+
+
+def _run_shell(tmp_path_factory, ranks: int):
+    case = tmp_path_factory.mktemp(f"motion-shell-{ranks}")
+    make_case(case, "rotate", False, check=f"shell {SHELL};")
+    T.run_utility(case, ["blockMesh"])
+    if ranks > 1:
+        T.run_utility(case, ["decomposePar"])
+    _pimple(case, ranks, "pimpleFoam")
+    if ranks > 1:
+        T.run_utility(case, ["reconstructPar", "-latestTime"])
+    return case
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_shell_moves_a_point_near_the_wall_with_its_foot_point_alone(tmp_path_factory,
+                                                                         ranks):
+    """With ``shell``, a point within innerDistance whose second-nearest wall point lies beyond
+    (1 + shell) times its nearest follows that nearest wall point exactly: the layer above a
+    rotating wall takes each wall point's own displacement (without the shell it takes a
+    blend of its K nearest, above). On two ranks, where the square is split and the wall
+    points on the cut get their area from both ranks, the mesh is the serial one."""
+    if ranks > 1 and shutil.which("mpirun") is None:
+        pytest.skip("mpirun is not on PATH")
+    case = _run_shell(tmp_path_factory, ranks)
+    p0, wall = points0_and_wall(case)
+    dist = np.linalg.norm(p0[:, None, :] - p0[wall][None, :, :], axis=2)
+    order = np.argsort(dist, axis=1)
+    r1 = np.take_along_axis(dist, order[:, :1], axis=1)[:, 0]
+    r2 = np.take_along_axis(dist, order[:, 1:2], axis=1)[:, 0]
+    # off the wall, phi = 1, the foot point alone in the shell (the 2D mesh's two planes:
+    # the foot point is the wall point in the same plane)
+    alone = (r1 > 0) & (r1 < INNER) & (r2 > (1 + SHELL) * r1 * (1 + 1e-9))
+    assert alone.sum() > len(wall) // 2
+    foot = wall[order[alone, 0]]
+    t = _tname(N_STEPS)
+    d = read_points(case / t / "polyMesh" / "points") - p0
+    np.testing.assert_allclose(d[alone], d[foot], rtol=0, atol=1e-12)
+    if ranks > 1:
+        serial = _run_shell(tmp_path_factory, 1)
+        np.testing.assert_allclose(read_points(case / t / "polyMesh" / "points"),
+                                   read_points(serial / t / "polyMesh" / "points"),
+                                   rtol=0, atol=1e-12)
+
+
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_restart_from_an_odd_step_reproduces_the_mesh_and_flow(tmp_path_factory, ranks):
     if ranks > 1 and shutil.which("mpirun") is None:

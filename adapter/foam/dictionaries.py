@@ -162,6 +162,7 @@ def _write_mesh_motion(case: Path, c, p: CaseParameters, static_whale: bool) -> 
         coeffs["outerDistance"] = p.motion_outer_m
         coeffs["nNeighbours"] = c.motion_neighbours
         coeffs["power"] = c.motion_power
+        coeffs["shell"] = c.motion_shell
         # the new points checked before the mesh moves: an invalid mesh stops the run first
         coeffs["checkMotion"] = "yes"
     else:

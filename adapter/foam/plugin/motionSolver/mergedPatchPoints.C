@@ -113,4 +113,33 @@ Foam::tmp<Foam::vectorField> Foam::mergedPatchPoints::merge(
 }
 
 
+Foam::tmp<Foam::scalarField> Foam::mergedPatchPoints::mergeSum(
+    const scalarField& mine
+) const
+{
+    List<scalarField> all(Pstream::nProcs());
+    all[Pstream::myProcNo()] = mine;
+    Pstream::gatherList(all);
+    Pstream::scatterList(all);
+
+    tmp<scalarField> tsum(new scalarField(points_.size(), Zero));
+    scalarField& sum = tsum.ref();
+    forAll(all, proci)
+    {
+        const labelList& slots = slots_[proci];
+        if (all[proci].size() != slots.size())
+        {
+            FatalErrorInFunction
+                << "rank " << proci << " sent " << all[proci].size()
+                << " patch point values, expected " << slots.size()
+                << exit(FatalError);
+        }
+        forAll(slots, i)
+        {
+            sum[slots[i]] += all[proci][i];
+        }
+    }
+    return tsum;
+}
+
 // ************************************************************************* //

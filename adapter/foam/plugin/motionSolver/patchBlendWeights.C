@@ -30,9 +30,18 @@ Foam::patchBlendWeights::patchBlendWeights(
     const scalar power,
     const scalar innerDistance,
     const scalar outerDistance,
-    const scalar rotationDistance
+    const scalar rotationDistance,
+    const scalar shell,
+    const scalarField& areas
 )
 {
+    if (shell > 0 && areas.size() != tree.size())
+    {
+        FatalErrorInFunction
+            << "a shell needs the area of every patch point: got " << areas.size()
+            << " areas for " << tree.size() << " points" << exit(FatalError);
+    }
+
     boolList onPatch(p0.size(), false);
     UIndirectList<bool>(onPatch, meshPoints) = true;
 
@@ -68,12 +77,17 @@ Foam::patchBlendWeights::patchBlendWeights(
         }
 
         const scalar rLast = Foam::sqrt(nearest[K].first);
-        const scalar cut = Foam::pow(rLast, -power);
+        const scalar R = (shell > 0 ? std::min((1 + shell) * r1, rLast) : rLast);
+        const scalar cut = Foam::pow(R, -power);
         scalar sumW = 0;
         for (label j = 0; j < K; ++j)
         {
             const scalar r = Foam::sqrt(nearest[j].first);
             w[j] = (r > 0 ? Foam::pow(r, -power) - cut : GREAT);
+            if (shell > 0)
+            {
+                w[j] = std::max(w[j], scalar(0)) * areas[nearest[j].second];
+            }
             sumW += w[j];
         }
         if (!(sumW > 0))

@@ -49,19 +49,21 @@ void Foam::whaleBlendedDisplacementMotionSolver::readCoeffs()
     outerDistance_ = dict.get<scalar>("outerDistance");
     rotation_ = dict.getOrDefault<bool>("rotation", false);
     rotationDistance_ = dict.getOrDefault<scalar>("rotationDistance", 2);
+    shell_ = dict.getOrDefault<scalar>("shell", 0);
     checkMotion_ = dict.getOrDefault<bool>("checkMotion", true);
 
     if (nNeighbours_ < 1 || power_ <= 0 || innerDistance_ < 0
         || outerDistance_ <= innerDistance_
-        || rotationDistance_ <= innerDistance_)
+        || rotationDistance_ <= innerDistance_ || shell_ < 0)
     {
         FatalIOErrorInFunction(dict)
             << "need nNeighbours >= 1, power > 0, 0 <= innerDistance"
-            << " < outerDistance, innerDistance < rotationDistance; got "
-               "nNeighbours "
+            << " < outerDistance, innerDistance < rotationDistance, shell >= 0;"
+               " got nNeighbours "
             << nNeighbours_ << ", power " << power_ << ", innerDistance "
             << innerDistance_ << ", outerDistance " << outerDistance_
-            << ", rotationDistance " << rotationDistance_ << exit(FatalIOError);
+            << ", rotationDistance " << rotationDistance_ << ", shell "
+            << shell_ << exit(FatalIOError);
     }
 }
 
@@ -82,6 +84,24 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
                              << " points: need at least 2" << exit(FatalError);
     }
 
+    // With a shell: each patch point's area, a share of every face around it
+    // (undeformed), summed over the ranks
+    scalarField areas;
+    if (shell_ > 0)
+    {
+        const pointField localPoints0(p0, meshPoints);
+        scalarField mine(meshPoints.size(), Zero);
+        for (const face& f : pp.localFaces())
+        {
+            const scalar share = f.mag(localPoints0) / f.size();
+            for (const label pointi : f)
+            {
+                mine[pointi] += share;
+            }
+        }
+        areas = patchPoints_->mergeSum(mine);
+    }
+
     // Blend weights of every mesh point off the patch within outerDistance
     weights_.reset(new patchBlendWeights(
         p0,
@@ -91,7 +111,9 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
         power_,
         innerDistance_,
         outerDistance_,
-        rotationDistance_
+        rotationDistance_,
+        shell_,
+        areas
     ));
 
     if (rotation_)
@@ -105,8 +127,8 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
          << " rank(s)); " << returnReduce(weights_->size(), sumOp<label>())
          << " mesh points blended (K " << K << ", power " << power_
          << ", innerDistance " << innerDistance_ << ", outerDistance "
-         << outerDistance_ << ", rotation " << rotation_ << ", checkMotion "
-         << checkMotion_ << ")" << endl;
+         << outerDistance_ << ", rotation " << rotation_ << ", shell "
+         << shell_ << ", checkMotion " << checkMotion_ << ")" << endl;
 
     if (checkMotion_)
     {
