@@ -4,9 +4,12 @@ For one written time of a reconstructed case (run-case's ``<case>/gliding``), th
 patch's face pressure (the owner cell's kinematic ``p`` times ``--rho``: the patch is
 zeroGradient) and each face's region (the nearest triangle centre of
 ``constant/triSurface/whale_regions.stl``). Prints per region the pressure force along x, the
-prism layers' coverage (``<case>/../0/nSurfaceLayers``, where snappyHexMesh wrote it) and y+;
+prism layers' coverage (``0/nSurfaceLayers``, where snappyHexMesh wrote it: the case's own, or
+its parent's for a pair's ``gliding``) and y+;
 then one flipper's pressure force along x in four span strips and six chord bands, with the
-band's area-weighted Cp. The forces are the half domain's when the case is one.
+band's area-weighted Cp, and the flukes' the same in strips of |y| (the span from the body's
+axis; both blades when the case is the full domain). A chord band is a share of the strip's x
+extent, 0 its most forward point. The forces are the half domain's when the case is one.
 
     .venv/bin/python scripts/region_pressure.py runs/default/gliding 23.5537109375
 """
@@ -41,6 +44,8 @@ from adapter.foam.foamascii import (  # noqa: E402
 #: the procedural flipper's growth direction (adapter/body/procedural.py, ``_flipper``)
 FLIPPER_DIRECTION = np.array([0.45, 0.75, -0.48])
 CHORD_BANDS = [0.1, 0.3, 0.5, 0.7, 0.9]
+#: the flukes' strips, |y| from the body's axis (m; the default whale's blade reaches 2.4)
+FLUKE_STRIPS = [0.0, 0.3, 0.6, 1.0, 1.5, 2.0, 2.6]
 
 
 def read_list(path) -> np.ndarray:
@@ -66,6 +71,23 @@ def patch_pressure(case, time: str, rho: float, patch: str = "whale") -> tuple:
     return face_area_vectors(pts, faces), centre, read_list(f"{case}/{time}/p")[owner] * rho
 
 
+def print_strips(faces, span, edges, centre, fx, p, area, q, label=False) -> None:
+    """For the ``faces`` in each strip ``edges[i] <= span < edges[i + 1]``: the pressure force
+    along x in :data:`CHORD_BANDS` (shares of the strip's x extent) and the bands' Cp."""
+    for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+        m = faces[(span >= lo) & (span < hi)]
+        if not len(m):
+            continue
+        x = centre[m, 0]
+        band = np.digitize((x - x.min()) / max(np.ptp(x), 1e-12), CHORD_BANDS)
+        force = [fx[m][band == k].sum() for k in range(len(CHORD_BANDS) + 1)]
+        cp = [(p[m][band == k] * area[m][band == k]).sum() / area[m][band == k].sum() / q
+              if (band == k).any() else float("nan") for k in range(len(CHORD_BANDS) + 1)]
+        where = f"|y| {lo:.1f}-{hi:.1f} m, " if label else ""
+        print(f"    {where}chord {np.ptp(x):.2f} m: " + " ".join(f"{v:+6.1f}" for v in force)
+              + f"  sum {sum(force):+6.1f}   Cp " + " ".join(f"{v:+.2f}" for v in cp))
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("case", help="a reconstructed case (run-case's <case>/gliding)")
@@ -85,7 +107,9 @@ def main(argv=None) -> int:
     names = list(solids)
     label = np.concatenate([[i] * len(solids[k]) for i, k in enumerate(names)])
     region = label[cKDTree(np.vstack([solids[k] for k in names])).query(centre)[1]]
-    layers = read_patch_field(f"{case}/../0/nSurfaceLayers", "whale", n)
+    own = Path(case) / "0" / "nSurfaceLayers"
+    layers = read_patch_field(own if own.is_file() else Path(case).parent / "0" / "nSurfaceLayers",
+                              "whale", n)
     yplus = read_patch_field(f"{case}/{time}/yPlus", "whale", n)
     print(f"{case} at {time}: {n} whale faces")
     for i, k in enumerate(names):
@@ -99,18 +123,15 @@ def main(argv=None) -> int:
     fins = np.flatnonzero(region == names.index("flippers"))
     d = FLIPPER_DIRECTION / np.linalg.norm(FLIPPER_DIRECTION)
     span = (centre[fins] - centre[fins].mean(axis=0)) @ d
-    strips = np.linspace(span.min(), span.max() + 1e-9, 5)
     print("  flipper: pressure force x (N) in chord bands 0-0.1-0.3-0.5-0.7-0.9-1 "
           "(0 the leading edge), and Cp, root strip first")
-    for lo, hi in zip(strips[:-1], strips[1:], strict=True):
-        m = fins[(span >= lo) & (span < hi)]
-        x = centre[m, 0]
-        band = np.digitize((x - x.min()) / np.ptp(x), CHORD_BANDS)
-        force = [fx[m][band == k].sum() for k in range(len(CHORD_BANDS) + 1)]
-        cp = [(p[m][band == k] * area[m][band == k]).sum() / area[m][band == k].sum() / q
-              if (band == k).any() else float("nan") for k in range(len(CHORD_BANDS) + 1)]
-        print(f"    chord {np.ptp(x):.2f} m: " + " ".join(f"{v:+6.1f}" for v in force)
-              + f"  sum {sum(force):+6.1f}   Cp " + " ".join(f"{v:+.2f}" for v in cp))
+    print_strips(fins, span, np.linspace(span.min(), span.max() + 1e-9, 5), centre, fx, p,
+                 area, q)
+    if "flukes" in names:
+        flukes = np.flatnonzero(region == names.index("flukes"))
+        print("  flukes: the same in strips of |y| (m from the axis), the root strip first")
+        print_strips(flukes, np.abs(centre[flukes, 1]), FLUKE_STRIPS, centre, fx, p, area, q,
+                     label=True)
     return 0
 
 
