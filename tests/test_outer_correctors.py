@@ -1,7 +1,8 @@
 """PIMPLE's outer and pressure correctors (``case.outer_correctors``,
 ``case.pressure_correctors``) in the case's fvSolution, with the mesh moved once a step, and the
 time scheme (``case.time_scheme``) in its fvSchemes; the blended motion's neighbour count and
-power (``case.motion_neighbours``, ``case.motion_power``) in its dynamicMeshDict."""
+power and shell (``case.motion_neighbours``, ``case.motion_power``, ``case.motion_shell``) in its
+dynamicMeshDict."""
 
 from __future__ import annotations
 
@@ -54,16 +55,21 @@ def test_the_time_scheme_reaches_fvschemes(tmp_path, smoke_scene, smoke_surface)
 
 
 def test_the_motion_weights_reach_dynamicmeshdict(tmp_path, smoke_scene, smoke_surface):
-    for n, power in ((8, 2.0), (48, 3.5)):
+    for n, power, shell in ((8, 2.0, 0.0), (48, 3.5, 0.25)):
         case = tmp_path / f"case-k{n}"
-        scene = smoke_scene.replace(case={"motion_neighbours": n, "motion_power": power})
+        scene = smoke_scene.replace(case={"motion_neighbours": n, "motion_power": power,
+                                          "motion_shell": shell})
         C.prepare_case(scene, case, surface=smoke_surface)
         dyn = ParsedParameterFile(str(case / "constant" / "dynamicMeshDict"))
         coeffs = dyn["whaleBlendedDisplacementCoeffs"]
         assert int(coeffs["nNeighbours"]) == n and float(coeffs["power"]) == power
+        assert float(coeffs["shell"]) == shell
     default = load_scene(preset="default").case
-    assert (default.motion_neighbours, default.motion_power) == (16, 3.0)
+    assert (default.motion_neighbours, default.motion_power, default.motion_shell) == \
+        (256, 2.0, 0.5)
     with pytest.raises(SceneError, match="motion_neighbours"):
         smoke_scene.replace(case={"motion_neighbours": 1})
     with pytest.raises(SceneError, match="motion_power"):
         smoke_scene.replace(case={"motion_power": 0.5})
+    with pytest.raises(SceneError, match="motion_shell"):
+        smoke_scene.replace(case={"motion_shell": -0.5})
