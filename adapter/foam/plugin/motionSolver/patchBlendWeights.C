@@ -38,8 +38,9 @@ Foam::patchBlendWeights::patchBlendWeights(
     if (shell > 0 && areas.size() != tree.size())
     {
         FatalErrorInFunction
-            << "a shell needs the area of every patch point: got " << areas.size()
-            << " areas for " << tree.size() << " points" << exit(FatalError);
+            << "a shell needs the area of every patch point: got "
+            << areas.size() << " areas for " << tree.size() << " points"
+            << exit(FatalError);
     }
 
     boolList onPatch(p0.size(), false);
@@ -77,7 +78,8 @@ Foam::patchBlendWeights::patchBlendWeights(
         }
 
         const scalar rLast = Foam::sqrt(nearest[K].first);
-        const scalar R = (shell > 0 ? std::min((1 + shell) * r1, rLast) : rLast);
+        const scalar R =
+            (shell > 0 ? std::min((1 + shell) * r1, rLast) : rLast);
         const scalar cut = Foam::pow(R, -power);
         scalar sumW = 0;
         for (label j = 0; j < K; ++j)

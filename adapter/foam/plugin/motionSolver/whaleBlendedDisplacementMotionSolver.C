@@ -127,8 +127,8 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
          << " rank(s)); " << returnReduce(weights_->size(), sumOp<label>())
          << " mesh points blended (K " << K << ", power " << power_
          << ", innerDistance " << innerDistance_ << ", outerDistance "
-         << outerDistance_ << ", rotation " << rotation_ << ", shell "
-         << shell_ << ", checkMotion " << checkMotion_ << ")" << endl;
+         << outerDistance_ << ", rotation " << rotation_ << ", shell " << shell_
+         << ", checkMotion " << checkMotion_ << ")" << endl;
 
     if (checkMotion_)
     {
