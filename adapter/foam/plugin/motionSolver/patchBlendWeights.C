@@ -78,8 +78,10 @@ Foam::patchBlendWeights::patchBlendWeights(
         }
 
         const scalar rLast = Foam::sqrt(nearest[K].first);
+        // A point of this rank that is a patch point of another rank's faces
+        // only (r_1 = 0) follows that point: its weight is GREAT
         const scalar R =
-            (shell > 0 ? std::min((1 + shell) * r1, rLast) : rLast);
+            (shell > 0 && r1 > 0 ? std::min((1 + shell) * r1, rLast) : rLast);
         const scalar cut = Foam::pow(R, -power);
         scalar sumW = 0;
         for (label j = 0; j < K; ++j)
