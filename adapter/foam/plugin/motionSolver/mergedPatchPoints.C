@@ -83,47 +83,17 @@ Foam::mergedPatchPoints::mergedPatchPoints(const pointField& mine) :
 
 // * * * * * * * * * * * * * * * Member Functions  * * * * * * * * * * * * * //
 
-Foam::tmp<Foam::vectorField> Foam::mergedPatchPoints::merge(
-    const vectorField& mine
-) const
+template<class Type>
+Foam::tmp<Foam::Field<Type>>
+Foam::mergedPatchPoints::gather(const Field<Type>& mine, const bool add) const
 {
-    List<vectorField> allD(Pstream::nProcs());
-    allD[Pstream::myProcNo()] = mine;
-    Pstream::gatherList(allD);
-    Pstream::scatterList(allD);
-
-    tmp<vectorField> td(new vectorField(points_.size(), Zero));
-    vectorField& d = td.ref();
-    forAll(allD, proci)
-    {
-        const labelList& slots = slots_[proci];
-        if (allD[proci].size() != slots.size())
-        {
-            FatalErrorInFunction
-                << "rank " << proci << " sent " << allD[proci].size()
-                << " patch displacements, expected " << slots.size()
-                << exit(FatalError);
-        }
-        forAll(slots, i)
-        {
-            d[slots[i]] = allD[proci][i];
-        }
-    }
-    return td;
-}
-
-
-Foam::tmp<Foam::scalarField> Foam::mergedPatchPoints::mergeSum(
-    const scalarField& mine
-) const
-{
-    List<scalarField> all(Pstream::nProcs());
+    List<Field<Type>> all(Pstream::nProcs());
     all[Pstream::myProcNo()] = mine;
     Pstream::gatherList(all);
     Pstream::scatterList(all);
 
-    tmp<scalarField> tsum(new scalarField(points_.size(), Zero));
-    scalarField& sum = tsum.ref();
+    tmp<Field<Type>> tout(new Field<Type>(points_.size(), Zero));
+    Field<Type>& out = tout.ref();
     forAll(all, proci)
     {
         const labelList& slots = slots_[proci];
@@ -136,10 +106,33 @@ Foam::tmp<Foam::scalarField> Foam::mergedPatchPoints::mergeSum(
         }
         forAll(slots, i)
         {
-            sum[slots[i]] += all[proci][i];
+            if (add)
+            {
+                out[slots[i]] += all[proci][i];
+            }
+            else
+            {
+                out[slots[i]] = all[proci][i];
+            }
         }
     }
-    return tsum;
+    return tout;
+}
+
+
+Foam::tmp<Foam::vectorField> Foam::mergedPatchPoints::merge(
+    const vectorField& mine
+) const
+{
+    return gather(mine, false);
+}
+
+
+Foam::tmp<Foam::scalarField> Foam::mergedPatchPoints::mergeSum(
+    const scalarField& mine
+) const
+{
+    return gather(mine, true);
 }
 
 // ************************************************************************* //
