@@ -9,12 +9,15 @@ after the other:
 - ``coupled``: the case with the step-server, ``whaleBlendedDisplacement`` and ``correctPhi
   yes``, its ``pcorr`` solver set as the template (foam_case/system/fvSolution) sets it;
 - ``coupled, pcorr to 1e-5``: the same with the flux correction solved to an absolute 1e-5
-  (``relTol 0``), as the template did before.
+  (``relTol 0``), as the template did before;
+- ``coupled, p by GaussSeidel``: the template's case with the pressure's GAMG smoothed by
+  GaussSeidel instead of DIC, as the template did before.
 
 It prints the CPU seconds per step (OpenFOAM's ExecutionTime, the first step left out), the
-ratio to the static step, and, for the coupled runs, the mean Fx and power over the steps (the
-motion is a function of time, so the two coupled runs differ in the flux correction alone), and
-writes ``out/bench-flow.json``. Nothing of the source case is changed.
+ratio to the static step, the pressure's GAMG V-cycles a step, and, for the coupled runs, the
+mean Fx and power over the steps (the motion is a function of time, so the coupled runs differ
+in their solver settings alone), and writes ``out/bench-flow.json``. Nothing of the source
+case is changed.
 
     make bench-flow                          # runs/default, 44 steps
     .venv/bin/python scripts/bench_flow.py --case runs/study-default/mesh-1/case --steps 176
@@ -47,13 +50,17 @@ from adapter.foamfiles import time_dirs  # noqa: E402
 from adapter.jsonfiles import finite  # noqa: E402
 
 #: the template's flux correction before it was loosened: to an absolute 1e-5
-TIGHT_PCORR = {"tolerance": 1e-5, "relTol": 0}
+TIGHT_PCORR = {"pcorr": {"tolerance": 1e-5, "relTol": 0}}
+#: the template's pressure smoother before DIC
+GAUSS_SEIDEL_P = {"p": {"smoother": "GaussSeidel"}}
 
 
-def template_pcorr() -> dict:
-    """The template's pcorr tolerances (the source case may have been made before a change)."""
+def template_solvers() -> dict:
+    """The template's p and pcorr settings (the source case may have been made before a
+    change)."""
     d = parsed_dict(ROOT / "foam_case" / "system" / "fvSolution")
-    return {k: d["solvers"]["pcorr"][k] for k in ("tolerance", "relTol")}
+    return {"p": {"smoother": d["solvers"]["p"]["smoother"]},
+            "pcorr": {k: d["solvers"]["pcorr"][k] for k in ("tolerance", "relTol")}}
 
 
 def copy_at(case: Path, time: str, dst: Path, steps: int) -> float:
@@ -103,10 +110,12 @@ def make_static(case: Path, time: str) -> None:
     d.writeFile()
 
 
-def set_pcorr(case: Path, entries: dict) -> None:
+def set_solvers(case: Path, solvers: dict) -> None:
+    """Set ``{solver: {keyword: value}}`` in the case's fvSolution."""
     d = parsed_dict(case / "system" / "fvSolution")
-    for k, v in entries.items():
-        d["solvers"]["pcorr"][k] = v
+    for name, entries in solvers.items():
+        for k, v in entries.items():
+            d["solvers"][name][k] = v
     d.writeFile()
 
 
@@ -126,8 +135,10 @@ def run(case: Path, coupled: bool) -> dict:
     cpu = [float(x) for x in re.findall(r"^ExecutionTime = (\S+)", text, re.M)]
     if len(cpu) < 3:
         raise CaseError(f"{case}: fewer than 3 steps in log.pimpleFoam")
+    cycles = [int(n) for n in re.findall(r"Solving for p, .* No Iterations (\d+)", text)]
     data = ld.read_loads(case)
     return {"steps": len(cpu), "cpu_s_per_step": (cpu[-1] - cpu[0]) / (len(cpu) - 1),
+            "p_cycles_per_step": sum(cycles) / len(cpu),
             "mean_fx_N": float(np.mean(data["total:Fx"])),
             "mean_power_W": float(np.mean(data["total:P"]))}
 
@@ -151,25 +162,29 @@ def main(argv=None) -> int:
                  f"{', '.join(times) or 'none'})")
     results = {}
     with tempfile.TemporaryDirectory(prefix="bench-flow-") as tmp:
-        for name, coupled, pcorr in (("static", False, None),
-                                     ("coupled", True, template_pcorr()),
-                                     ("coupled, pcorr to 1e-5", True, TIGHT_PCORR)):
+        template = template_solvers()
+        for name, coupled, changes in (
+                ("static", False, template),
+                ("coupled", True, template),
+                ("coupled, pcorr to 1e-5", True, {**template, **TIGHT_PCORR}),
+                ("coupled, p by GaussSeidel", True, {**template, **GAUSS_SEIDEL_P})):
             dst = Path(tmp) / name.replace(" ", "_").replace(",", "")
             copy_at(case, time, dst, args.steps)
             if not coupled:
                 make_static(dst, time)
-            if pcorr:
-                set_pcorr(dst, pcorr)
+            set_solvers(dst, changes)
             results[name] = run(dst, coupled)
-            print(f"{name:<24} {results[name]['cpu_s_per_step']:.3f} CPU s/step", flush=True)
+            print(f"{name:<26} {results[name]['cpu_s_per_step']:.3f} CPU s/step", flush=True)
     base = results["static"]["cpu_s_per_step"]
     print(f"\n{case} from t = {time} s, {args.steps} steps each (CPU s per step, first left out)")
-    print(f"{'run':<24} {'s/step':>7} {'x static':>9} {'mean Fx (N)':>12} {'power (W)':>10}")
+    print(f"{'run':<26} {'s/step':>7} {'x static':>9} {'p cycles':>9} {'mean Fx (N)':>12} "
+          f"{'power (W)':>10}")
     for name, r in results.items():
         r["x_static"] = r["cpu_s_per_step"] / base
-        fx = f"{r['mean_fx_N']:.1f}" if name != "static" else "-"
-        pw = f"{r['mean_power_W']:.0f}" if name != "static" else "-"
-        print(f"{name:<24} {r['cpu_s_per_step']:>7.3f} {r['x_static']:>9.2f} {fx:>12} {pw:>10}")
+        fx = f"{r['mean_fx_N']:.2f}" if name != "static" else "-"
+        pw = f"{r['mean_power_W']:.1f}" if name != "static" else "-"
+        print(f"{name:<26} {r['cpu_s_per_step']:>7.3f} {r['x_static']:>9.2f} "
+              f"{r['p_cycles_per_step']:>9.1f} {fx:>12} {pw:>10}")
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(finite({"case": str(case), "time": time, "steps": args.steps,
