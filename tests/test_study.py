@@ -66,15 +66,18 @@ def _smoke_with_layers(smoke_scene):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("finest, own", [("scene", 1), ("refined", 2)])
+@pytest.mark.parametrize("finest, own, layers", [("scene", 1, "first-kept"),
+                                                 ("refined", 2, "first-kept"),
+                                                 ("refined", 2, "similar")])
 def test_three_meshes_scale_every_cell_by_the_ratio(tmp_path, smoke_scene, smoke_surface,
-                                                    finest, own):
-    """Background cell and the prism stack scale by r (first layer kept), mesh ``own`` is the
-    scene's, dt is the same on all three; the dictionaries prepare_case writes carry it."""
+                                                    finest, own, layers):
+    """Background cell and the prism stack scale by r (``similar``: every layer, count and
+    expansion kept; ``first-kept``: the stack, first layer kept), mesh ``own`` is the scene's,
+    dt is the same on all three; the dictionaries prepare_case writes carry it."""
     scene = _smoke_with_layers(smoke_scene)
     r = 1.4
     cases = {c["name"]: c for c in S.plan_cases(scene, smoke_surface, r, (0.9, 1.0, 1.1),
-                                                 finest=finest)}
+                                                 finest=finest, layers=layers)}
     assert list(cases) == ["mesh-3/case", "mesh-2/case", "mesh-1/case", "mesh-2/dt-half",
                            "mesh-2/speed-0.9", "mesh-2/speed-1.1"]
     stack0 = S.stack_thickness(0.05, 3, 1.5)
@@ -83,7 +86,10 @@ def test_three_meshes_scale_every_cell_by_the_ratio(tmp_path, smoke_scene, smoke
         sc = cases[f"mesh-{k}/case"]["scene"]
         assert sc.case.background_cell == pytest.approx(scene.case.background_cell
                                                         * r ** (k - own))
-        assert sc.case.first_layer_m == 0.05
+        first = 0.05 * r ** (k - own) if layers == "similar" else 0.05
+        assert sc.case.first_layer_m == pytest.approx(first, rel=1e-12)
+        if layers == "similar":
+            assert (sc.case.layers, sc.case.layer_expansion) == (3, 1.5)
         assert S.stack_thickness(sc.case.first_layer_m, sc.case.layers,
                                  sc.case.layer_expansion) == pytest.approx(
                                                                      stack0 * r ** (k - own),
@@ -93,7 +99,7 @@ def test_three_meshes_scale_every_cell_by_the_ratio(tmp_path, smoke_scene, smoke
         snappy = D.parsed_dict(tmp_path / f"m{k}" / "system" / "snappyHexMeshDict")
         assert snappy["addLayersControls"]["expansionRatio"] == pytest.approx(
             sc.case.layer_expansion)
-        assert snappy["addLayersControls"]["firstLayerThickness"] == pytest.approx(0.05)
+        assert snappy["addLayersControls"]["firstLayerThickness"] == pytest.approx(first)
     h = {k: math.prod(params[k].cell_size) ** (1 / 3) for k in params}
     assert h[2] / h[1] == pytest.approx(r, rel=0.08) and h[3] / h[2] == pytest.approx(r, rel=0.08)
     assert params[1].delta_t == params[2].delta_t == params[3].delta_t
@@ -218,8 +224,15 @@ def test_study_machinery_with_a_model_runner_stops_resumes_and_answers(tmp_path,
     assert A.choose_flow_mesh(saved, d[2] * 1.01)["mesh"] == 2
     assert A.choose_flow_mesh(saved, d[3] * 1.01)["mesh"] == 3
     none = A.choose_flow_mesh(saved, d[1] / 2)
-    assert none["mesh"] is None and none["background_cell_m_needed"] < saved["cases"][
-        "mesh-1/case"]["background_cell_m"]
+    h1 = saved["cases"]["mesh-1/case"]["background_cell_m"]
+    assert none["mesh"] is None and none["background_cell_m_needed"] < h1
+    # the model's order 2: half the error at h1 / sqrt(2), within the study's span (h3 to h1,
+    # 1 / 1.69 of h1); a hundredth at h1 / 10, far beyond it
+    assert none["background_cell_m_needed"] == pytest.approx(h1 / math.sqrt(2), rel=1e-6)
+    assert not none["beyond_study"]
+    far = A.choose_flow_mesh(saved, d[1] / 100)
+    assert far["background_cell_m_needed"] == pytest.approx(h1 / 10, rel=1e-6)
+    assert far["beyond_study"]
     from adapter.cli import main
 
     assert main(["choose", "--flow-study", str(out), "--tolerance", str(d[2] * 1.01)]) == 0
@@ -228,6 +241,9 @@ def test_study_machinery_with_a_model_runner_stops_resumes_and_answers(tmp_path,
     with pytest.raises(AdapterError, match="another plan"):
         S.run_study(smoke_scene, out, runner=third.runner, mesher=third.mesher,
                     **{**kw, "ratio": 1.5})
+    with pytest.raises(AdapterError, match="another plan.*layers: 'similar'.*'first-kept'"):
+        S.run_study(smoke_scene, out, runner=third.runner, mesher=third.mesher,
+                    **{**kw, "layers": "first-kept"})
     # so is the same plan with any other value of the scene (not only another file's name)
     other = smoke_scene.replace(stroke={"frequency_hz": smoke_scene.stroke.frequency_hz * 1.1})
     with pytest.raises(AdapterError, match="another scene.*stroke.frequency_hz"):

@@ -199,7 +199,10 @@ def _choose_flow_mesh(args: argparse.Namespace) -> int:
         print(f"no mesh of the study is within {args.tolerance:.1%}: the finest differs by "
               f"{report['worst_difference']:.1%} from the extrapolated values"
               + (f"; a background cell of about {need:.3g} m would reach it (from the observed"
-                 " order)" if need else ""))
+                 " order)" if need else "")
+              + ("; that is far beyond the meshes the study ran, where the observed order was "
+                 "not measured: run a study on finer meshes to know" if report.get("beyond_study")
+                 else ""))
     else:
         print(f"mesh-{report['mesh']} (background cell {report['background_cell_m']:.4g} m, "
               f"{report['cells']:,} cells, {report['wall_s_per_cycle']:.0f} s per stroke "

@@ -11,8 +11,9 @@ For one scene it runs, each case in its own folder under ``<study>/``:
   network edge, which a mesh finer than the default cannot follow: docs/stroke.md). The
   blockMesh background cell (``case.background_cell``, or ``background_cell_m``)
   scales, the snappyHexMesh levels stay, so every castellated cell scales with it. The prism
-  layers: the first layer keeps its thickness (the first cell centre's y+ stays where the
-  wall function holds it), the stack's total thickness scales with the cells
+  layers (``layers``): by default every layer scales with the cells (count and expansion
+  kept: the meshes are geometrically similar, and the first cell centre's y+ scales too);
+  ``"first-kept"`` keeps the first layer's thickness and scales the stack's total thickness
   (:func:`layer_rule`). The flow step is the same on all three (the scene's ``case.dt_s``, or
   the automatic step of the scene's own mesh), so the three differ in space only.
 - ``mesh-2/dt-half``: mesh 2 with the flow step halved (the time-step check; exactly half
@@ -108,15 +109,21 @@ def layer_rule(first: float, layers: int, expansion: float, scale: float) -> tup
 
 
 FINEST = ("scene", "refined")
+#: how the prism layers follow the cells: ``similar`` scales every layer with them (the
+#: meshes geometrically similar); ``first-kept`` keeps the first layer (its y+) and scales
+#: the stack's total thickness (:func:`layer_rule`)
+LAYER_RULES = ("similar", "first-kept")
 
 
-def mesh_scene(scene, k: int, ratio: float, finest: str = "scene"):
+def mesh_scene(scene, k: int, ratio: float, finest: str = "scene", layers: str = "similar"):
     """The scene of mesh ``k`` (1 finest, 3 coarsest): every cell ``ratio`` ** (k - 1) times the
     scene's (``finest = "scene"``) or ``ratio`` ** (k - 2) (``"refined"``: mesh 2 is the
-    scene's) in the background cell and the prism stack, the first layer and the snappy levels
-    kept."""
+    scene's) in the background cell and, by ``layers`` (:data:`LAYER_RULES`), the prism
+    stack; the snappy levels kept."""
     if finest not in FINEST:
         raise AdapterError(f"finest = {finest!r}: choose one of {', '.join(FINEST)}")
+    if layers not in LAYER_RULES:
+        raise AdapterError(f"layers = {layers!r}: choose one of {', '.join(LAYER_RULES)}")
     c = scene.case
     scale = ratio ** (k - (1 if finest == "scene" else 2))
     changes = {}
@@ -124,8 +131,11 @@ def mesh_scene(scene, k: int, ratio: float, finest: str = "scene"):
         changes["background_cell_m"] = c.background_cell_m * scale
     else:
         changes["background_cell"] = c.background_cell * scale
-    n, e = layer_rule(c.first_layer_m, c.layers, c.layer_expansion, scale)
-    changes.update(layers=n, layer_expansion=e)
+    if layers == "similar":
+        changes["first_layer_m"] = c.first_layer_m * scale
+    else:
+        n, e = layer_rule(c.first_layer_m, c.layers, c.layer_expansion, scale)
+        changes.update(layers=n, layer_expansion=e)
     return scene.replace(case=changes)
 
 
@@ -144,7 +154,7 @@ def _speed_name(f: float) -> str:
 
 
 def plan_cases(scene, surface, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS,
-               parts=PARTS, finest: str = "scene") -> list:
+               parts=PARTS, finest: str = "scene", layers: str = "similar") -> list:
     """The study's cases in the order they run: dicts with ``name`` (folder relative to the
     study), ``scene``, ``part``, ``mesh`` (1-3), ``mesh_from`` (a case whose mesh it reuses, or
     None), ``dt_s``, ``speed_factor``."""
@@ -156,7 +166,7 @@ def plan_cases(scene, surface, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEE
     scene = scene.replace(free={"enabled": False})
     dt = study_dt(scene, surface)
     cases = []
-    meshes = {k: mesh_scene(scene, k, ratio, finest).replace(case={"dt_s": dt})
+    meshes = {k: mesh_scene(scene, k, ratio, finest, layers).replace(case={"dt_s": dt})
               for k in (1, 2, 3)}
     if "meshes" in parts:
         for k in (3, 2, 1):
@@ -211,8 +221,9 @@ def _check_plan(out: Path, plan: dict) -> None:
     path = out / PLAN
     if path.is_file():
         old = json.loads(path.read_text())
-        differs = [k for k in ("scene_file", "preset", "ratio", "speeds", "finest")
-                   if old.get(k, "refined" if k == "finest" else None) != plan.get(k)]
+        before = {"finest": "refined", "layers": "first-kept"}   # plans written without them
+        differs = [k for k in ("scene_file", "preset", "ratio", "speeds", "finest", "layers")
+                   if old.get(k, before.get(k)) != plan.get(k)]
         if differs:
             was = ", ".join(f"{k}: {old.get(k)!r}" for k in differs)
             asked = ", ".join(f"{k}: {plan.get(k)!r}" for k in differs)
@@ -245,7 +256,8 @@ def _meshed(case: Path) -> bool:
 
 def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS,
               parts=PARTS, ranks=None, scene_file=None, progress: bool = True, runner=None,
-              mesher=None, surface=None, log=print, finest: str = "scene") -> dict:
+              mesher=None, surface=None, log=print, finest: str = "scene",
+              layers: str = "similar") -> dict:
     """Prepare, mesh and run every case of the study (skipping finished ones), then analyse.
 
     ``runner(case, record, tolerance, ranks, progress) -> summary`` runs one pair (default
@@ -264,10 +276,11 @@ def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS
         surface = build_surface(scene)
     speeds = sorted(float(f) for f in speeds)
     plan = {"scene_file": str(Path(scene_file).resolve()) if scene_file else None,
-            "preset": scene.name, "ratio": ratio, "speeds": speeds, "finest": finest}
+            "preset": scene.name, "ratio": ratio, "speeds": speeds, "finest": finest,
+            "layers": layers}
     _check_plan(out, plan)
     _check_scene(out, scene, plan["scene_file"] or f"preset {scene.name}")
-    cases = plan_cases(scene, surface, ratio, speeds, parts, finest)
+    cases = plan_cases(scene, surface, ratio, speeds, parts, finest, layers)
     failed = {}
     t0 = time.perf_counter()
     for i, c in enumerate(cases, 1):
@@ -300,6 +313,7 @@ def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS
             log(f"{head}: failed: {exc}")
     study = analyse(out, scene, cases, ratio, failed)
     study["finest"] = finest
+    study["layers"] = layers
     study["wall_s_this_run"] = round(time.perf_counter() - t0, 1)
     write_json(out / RESULT, finite(study))
     try:
@@ -334,6 +348,10 @@ def register(subparsers) -> None:
     p.add_argument("--finest", choices=FINEST, default="refined",
                    help="which mesh is the finest: one refined beyond the scene's (default; "
                    "mesh 2 the scene's) or the scene's own (meshes 2 and 3 coarser)")
+    p.add_argument("--layers", choices=LAYER_RULES, default="similar",
+                   help="how the prism layers follow the cells: every layer scaled with them "
+                   "(default; the meshes geometrically similar, the first cell's y+ scales "
+                   "too) or the first layer kept (the same y+, the stack's thickness scaled)")
     p.add_argument("--speeds", default=",".join(f"{f:g}" for f in DEFAULT_SPEEDS),
                    help="flow speeds as multiples of the scene's, comma-separated (default "
                    "%(default)s)")
@@ -364,7 +382,8 @@ def _cmd_study(args: argparse.Namespace) -> int:
         raise UsageError("--speeds: give at least three speeds")
     out = Path(args.out or default_folder(args.scene, args.preset, prefix="study-"))
     study = run_study(scene, out, ratio=args.ratio, speeds=speeds, parts=parts,
-                      finest=args.finest, ranks=args.ranks, scene_file=args.scene,
+                      finest=args.finest, layers=args.layers, ranks=args.ranks,
+                      scene_file=args.scene,
                       progress=not args.quiet)
     print(f"\n{out}: the flow study")
     print(format_study(study))

@@ -245,9 +245,10 @@ def choose_flow_mesh(study: dict, tolerance: float) -> dict:
     """The coarsest mesh of a finished study whose figures all lie within ``tolerance`` (a
     fraction of each figure's scale: mean Fx of the gliding drag) of their best values
     (:func:`mesh_error`); None when even mesh 1 does not, with the cell size the worst figure
-    would need (from its observed order), or when a figure diverges over the three meshes or
-    converges too slowly (``divergent``: its error is unknown; the spread of the three is a
-    lower bound)."""
+    would need (from its observed order; ``beyond_study`` when that is finer than mesh 1 by
+    more than the study spans from mesh 3 to mesh 1), or when a figure diverges over the
+    three meshes or converges too slowly (``divergent``: its error is unknown; the spread of
+    the three is a lower bound)."""
     ms = study.get("meshes")
     if not ms or not ms.get("figures"):
         raise AdapterError("the study has no finished mesh study (study.json 'meshes')")
@@ -273,6 +274,10 @@ def choose_flow_mesh(study: dict, tolerance: float) -> dict:
         if d > tolerance and g.get("p"):
             h = r1["background_cell_m"] * (tolerance / d) ** (1 / g["p"])
             need = h if need is None else min(need, h)
+    # a cell finer than mesh 1 by more than the study's own span (mesh 3 to mesh 1) is an
+    # extrapolation of the observed order beyond the meshes that measured it
+    span = r1["background_cell_m"] / study["cases"]["mesh-3/case"]["background_cell_m"]
     return {"mesh": None, "tolerance": tolerance,
             "worst_difference": max(mesh_error(g, 1) for g in figs.values()),
-            "background_cell_m_needed": need}
+            "background_cell_m_needed": need,
+            "beyond_study": need is not None and need < r1["background_cell_m"] * span}
