@@ -130,6 +130,18 @@ def test_the_study_runs_tethered_pairs_without_the_free_stage(smoke_scene, smoke
     assert not any(c["scene"].free.enabled for c in cases)
 
 
+def test_a_study_planned_before_the_layer_rules_continues_with_the_first_layer_kept(tmp_path):
+    """study-plan.json files written before ``layers`` existed were studies that kept the first
+    layer: asked for similar layers they are refused, naming the rule they ran."""
+    plan = {"scene_file": None, "preset": "default", "ratio": 1.3, "speeds": [1.0],
+            "finest": "refined"}
+    (tmp_path / S.PLAN).write_text(json.dumps(plan))
+    with pytest.raises(AdapterError, match="layers: 'first-kept'; asked: layers: 'similar'"):
+        S._check_plan(tmp_path, {**plan, "layers": "similar"})
+    S._check_plan(tmp_path, {**plan, "layers": "first-kept"})
+    assert json.loads((tmp_path / S.PLAN).read_text())["layers"] == "first-kept"
+
+
 def test_layer_rule_changes_the_layer_count_when_the_expansion_cannot_reach():
     n, e = S.layer_rule(0.008, 3, 1.5, 1 / 2.0)  # 19 mm: below 3 x 8 mm at expansion 1
     assert n == 2 and 1.0 <= e <= 3.0

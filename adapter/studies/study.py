@@ -225,7 +225,7 @@ def _check_plan(out: Path, plan: dict) -> None:
         differs = [k for k in ("scene_file", "preset", "ratio", "speeds", "finest", "layers")
                    if old.get(k, before.get(k)) != plan.get(k)]
         if differs:
-            was = ", ".join(f"{k}: {old.get(k)!r}" for k in differs)
+            was = ", ".join(f"{k}: {old.get(k, before.get(k))!r}" for k in differs)
             asked = ", ".join(f"{k}: {plan.get(k)!r}" for k in differs)
             raise AdapterError(
                 f"{out} holds a study of another plan ({was}; asked: {asked}); run it with "
