@@ -130,15 +130,25 @@ def test_the_study_runs_tethered_pairs_without_the_free_stage(smoke_scene, smoke
     assert not any(c["scene"].free.enabled for c in cases)
 
 
-def test_a_study_planned_before_the_layer_rules_continues_with_the_first_layer_kept(tmp_path):
+def test_a_study_planned_before_the_layer_rules_continues_with_the_first_layer_kept(
+        tmp_path, smoke_scene, smoke_surface):
     """study-plan.json files written before ``layers`` existed were studies that kept the first
-    layer: asked for similar layers they are refused, naming the rule they ran."""
-    plan = {"scene_file": None, "preset": "default", "ratio": 1.3, "speeds": [1.0],
-            "finest": "refined"}
+    layer: asked for similar layers they are refused, naming the rule they ran; asked for
+    first-kept they continue (here: to the first case's run, where the model stops)."""
+    kw = dict(ratio=1.3, speeds=(0.85, 1.0, 1.15), surface=smoke_surface, progress=False,
+              finest="scene")
+    plan = {"scene_file": None, "preset": smoke_scene.name, "ratio": 1.3,
+            "speeds": [0.85, 1.0, 1.15], "finest": "scene"}
     (tmp_path / S.PLAN).write_text(json.dumps(plan))
+    model = _Model(stop_at=1)
     with pytest.raises(AdapterError, match="layers: 'first-kept'; asked: layers: 'similar'"):
-        S._check_plan(tmp_path, {**plan, "layers": "similar"})
-    S._check_plan(tmp_path, {**plan, "layers": "first-kept"})
+        S.run_study(smoke_scene, tmp_path, runner=model.runner, mesher=model.mesher,
+                    layers="similar", **kw)
+    assert model.calls == []
+    with pytest.raises(KeyboardInterrupt):
+        S.run_study(smoke_scene, tmp_path, runner=model.runner, mesher=model.mesher,
+                    layers="first-kept", **kw)
+    assert model.calls == ["mesh-3/case"]
     assert json.loads((tmp_path / S.PLAN).read_text())["layers"] == "first-kept"
 
 
