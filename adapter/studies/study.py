@@ -220,12 +220,12 @@ def _check_scene(out: Path, scene, source: str) -> None:
 def _check_plan(out: Path, plan: dict) -> None:
     path = out / PLAN
     if path.is_file():
-        old = json.loads(path.read_text())
-        before = {"finest": "refined", "layers": "first-kept"}   # plans written without them
+        # plans written before "finest" and "layers" existed ran these
+        old = {"finest": "refined", "layers": "first-kept", **json.loads(path.read_text())}
         differs = [k for k in ("scene_file", "preset", "ratio", "speeds", "finest", "layers")
-                   if old.get(k, before.get(k)) != plan.get(k)]
+                   if old.get(k) != plan.get(k)]
         if differs:
-            was = ", ".join(f"{k}: {old.get(k, before.get(k))!r}" for k in differs)
+            was = ", ".join(f"{k}: {old.get(k)!r}" for k in differs)
             asked = ", ".join(f"{k}: {plan.get(k)!r}" for k in differs)
             raise AdapterError(
                 f"{out} holds a study of another plan ({was}; asked: {asked}); run it with "
