@@ -196,11 +196,14 @@ def test_run_case_runs_gliding_and_swimming_to_a_periodic_state(tmp_path):
     why = s["gliding_run"]["stopped_because"]
     assert why is None and glide["Time"][-1] > 4 * period - 1 or "steady" in why
     assert swim["Time"][-1] < 4 * period - 1  # stopped before case.cycles
-    # the figures are the last period's means of the written loads
-    last = swim["Time"] > s["cycle_means"]["start_s"][-1] + 1e-9
-    last &= swim["Time"] <= s["cycle_means"]["start_s"][-1] + period + 1e-9
-    assert s["swimming_mean_fx_N"] == pytest.approx(swim["total:Fx"][last].mean())
-    assert s["swimming_mean_power_W"] == pytest.approx(swim["total:P"][last].mean())
+    # the figures are the last period's time means of the written loads, each sample holding
+    # over the step that ends at it (the step here, 0.1 s, does not divide the period)
+    a = s["cycle_means"]["start_s"][-1]
+    t = swim["Time"]
+    held = np.clip(np.minimum(t, a + period) - np.maximum(t - 0.1, a), 0, None)
+    assert held.sum() == pytest.approx(period)
+    assert s["swimming_mean_fx_N"] == pytest.approx((held * swim["total:Fx"]).sum() / period)
+    assert s["swimming_mean_power_W"] == pytest.approx((held * swim["total:P"]).sum() / period)
     g_last = glide["Time"] > glide["Time"][-1] - period
     assert s["gliding_drag_N"] == pytest.approx(glide["total:Fx"][g_last].mean(), rel=0.05)
     # gliding: the whale does not move, so it puts no power into the water

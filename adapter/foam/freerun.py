@@ -184,8 +184,7 @@ def free_figures(free: Path, glide_sp: Path, tethered_drag: float) -> dict:
     u_sp = float(speed[-1])
 
     def swim_mean(column: str) -> float:
-        sel = (data["Time"] > window[0] + 1e-9) & (data["Time"] <= window[1] + 1e-9)
-        return float(data[column][sel].mean())
+        return ld.window_mean(data["Time"], data[column], *window)
 
     def glide_mean(column: str) -> float:
         st = ld.cycle_stats(gd["Time"], gd[column], gd[column], period, t0 + period)

@@ -68,19 +68,34 @@ class CycleStats:
     mean_power: np.ndarray
 
 
+def window_mean(t: np.ndarray, y: np.ndarray, a: float, b: float) -> float:
+    """The time mean of ``y`` over [a, b], each sample standing for the time step that ends
+    at it (times ``t``, increasing; the first step as long as the second): a step that the
+    window cuts counts with the part of it inside.
+
+    Not the mean of the samples inside the window: with a step that does not divide the
+    period (the default's 88.5 steps a cycle), consecutive windows hold 88 and 89 samples, and
+    the stroke's force, 1.6 kN either way, then moves the sample mean by about 6 N from one
+    cycle to the next; weighted by time, by 0.1 N."""
+    starts = np.concatenate(([2 * t[0] - t[1]] if len(t) > 1 else [t[0]], t[:-1]))
+    inside = np.clip(np.minimum(t, b) - np.maximum(starts, a), 0.0, None)
+    return float(np.sum(inside * y) / (b - a))
+
+
 def cycle_stats(t: np.ndarray, fx: np.ndarray, power: np.ndarray, period: float,
                 start_up: float) -> CycleStats:
-    """Means of Fx and power over each complete cycle [start_up + k T, start_up + (k+1) T)."""
+    """Means of Fx and power over each complete cycle [start_up + k T, start_up + (k+1) T)
+    (:func:`window_mean`); a cycle counts once a sample lies inside it and one at or past its
+    end."""
     starts, mfx, mp = [], [], []
     k = 0
     eps = 1e-9 * period
     while len(t) and start_up + (k + 1) * period <= t[-1] + eps:
         a, b = start_up + k * period, start_up + (k + 1) * period
-        sel = (t > a + eps) & (t <= b + eps)
-        if sel.any():
+        if ((t > a + eps) & (t <= b + eps)).any():
             starts.append(a)
-            mfx.append(float(fx[sel].mean()))
-            mp.append(float(power[sel].mean()))
+            mfx.append(window_mean(t, fx, a, b))
+            mp.append(window_mean(t, power, a, b))
         k += 1
     return CycleStats(np.array(starts), np.array(mfx), np.array(mp))
 
