@@ -71,10 +71,10 @@ def test_profile_has_head_and_tail_with_flipper_region_against_them(smoke_animat
     a = smoke_animator
     lm = a.surface.landmarks
     v = a.profile
-    # the tail's profile rises to the gate (the joint ahead of the tail base is the gate's)
+    # the tail's profile rises to the gate
     assert v[a.dynamic & (a.surface.s > a.tail_base_s - 0.1)].max() > 0 and v[lm["rostrum"]] > 0
     assert v[lm["flipper_left"]] < 0 and v[lm["flipper_right"]] < 0
-    assert np.all(v[a.fluke] == 0)  # the fluke and the joint are the gate's, not the springs'
+    assert np.all(v[a.fluke] == 0)  # the fluke is the gate's, not the springs'
 
 
 def test_fluke_follows_the_table(smoke_scene, paper_animator):

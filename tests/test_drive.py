@@ -215,51 +215,62 @@ def test_place_turns_the_fluke_about_the_hinge_and_its_velocity_is_the_time_deri
     assert np.abs(V[fluke, 2]).max() > 0.05
 
 
-def test_a_joint_blends_the_body_line_into_the_turn_about_the_paper_hinge():
-    """fluke_joint 0.1 L (1 m on the rod): the gate takes the stations from s = 0.7 on; the
-    body's line is taken just ahead of it (stations 6.75 and 7 m). Written out here as two
-    motions: the line (the band's lift plus its slope times the distance along the rod) and
-    the paper's fluke turn about its hinge (the mean of the stations at 7.75 and 8 m) riding on
-    that line. The fluke follows the turn, the joint's first station the line, its middle
-    (7.5 m) the quintic's half of each; the velocities are the positions' time derivative."""
+def test_a_joint_draws_the_peduncle_between_the_springs_and_the_turn_about_the_hinge():
+    """fluke_joint 0.1 L (1 m on the rod): the state is the paper's (the springs up to the
+    tail base at 8 m, the gate behind it), and the surface shown draws the stations from
+    s = 0.7 on as the blend of where the state has them and where the fluke's turn about the
+    hinge (the mean of the stations at 7.75 and 8 m) would carry them, written out here: the
+    joint's first station (7 m) is the state's, its middle (7.5 m) the quintic's half of
+    each, the tail base and the fluke the turn; the body ahead and the state are untouched;
+    the velocities are the shown positions' time derivative."""
     rest, s, _ = _rod()
-    scene = _scene(fluke_joint=0.1)
-    d, _ = _drive(scene, dynamic=s <= 0.7 + 1e-12)
-    assert d.hinge_nodes.tolist() == list(range(3 * 27, 3 * 29))  # x = 6.75, 7.0
-    lift, slope, x_band = 0.1, 0.05, 6.875
-    hinge = np.array([7.875, 0.0, 0.1])
+    d, _ = _drive(_scene(fluke_joint=0.1))
+    assert d.hinge_nodes.tolist() == list(range(3 * 31, 3 * 33))  # the paper's band
+    assert d.joint_nodes.tolist() == list(range(3 * 29, 3 * 41))  # s > 0.7
 
-    def placed(t):
+    def state(t):
         X = rest.copy()
-        X[:, 2] += (lift + slope * (rest[:, 0] - x_band)) * (1 + 0.1 * (t - 7.0))
+        X[:, 2] += (0.1 + 0.05 * rest[:, 0]) * (1 + 0.1 * (t - 7.0))  # a lifted, tilted body
+        X[:, 0] += 0.01 * np.sin(rest[:, 0]) * t                      # bent along x
         V = np.zeros_like(rest)
-        V[:, 2] = 0.1 * (lift + slope * (rest[:, 0] - x_band))
+        V[:, 2] = 0.1 * (0.1 + 0.05 * rest[:, 0])
+        V[:, 0] = 0.01 * np.sin(rest[:, 0])
         d.place(X, V, t)
         return X, V
 
+    def shown(t):
+        X, V = state(t)
+        kept = X.copy(), V.copy()
+        Xs, Vs = d.shape(X, V, t)
+        np.testing.assert_array_equal(X, kept[0])  # the state is not touched
+        np.testing.assert_array_equal(V, kept[1])
+        return Xs, Vs, X
+
     t = 7.0
-    X, V = placed(t)
+    Xs, Vs, X = shown(t)
     theta = math.radians(_table_deg(t / T))
     c, s_ = math.cos(theta), math.sin(theta)
     R = np.array([[c, 0, -s_], [0, 1, 0], [s_, 0, c]])
-
-    def line(k):
-        return rest[k] + [0, 0, lift + slope * (rest[k, 0] - x_band)]
+    hinge0 = np.array([7.875, 0.0, 0.1])
+    hinge_now = X[3 * 31:3 * 33].mean(axis=0)
 
     def turned(k):
-        on_line = hinge + [0, 0, lift + slope * (hinge[0] - x_band)]
-        return on_line + R @ (rest[k] - hinge)
+        return hinge_now + R @ (rest[k] - hinge0)
 
-    for station, share in ((28, 0.0), (30, _quintic(0.5)), (32, 1.0), (36, 1.0), (40, 1.0)):
+    for station, share in ((20, None), (28, None), (29, _quintic(0.25)), (30, _quintic(0.5)),
+                           (31, _quintic(0.75)), (32, 1.0), (36, 1.0), (40, 1.0)):
         for k in range(3 * station, 3 * station + 3):
+            want = X[k] if share is None else (1 - share) * X[k] + share * turned(k)
             # the spline's error against the table's formula: under 3e-6 rad
-            np.testing.assert_allclose(X[k], (1 - share) * line(k) + share * turned(k),
-                                       atol=2e-5, err_msg=f"station {station}")
+            np.testing.assert_allclose(Xs[k], want, atol=2e-5, err_msg=f"station {station}")
+    assert np.abs(Xs[3 * 30:3 * 31] - X[3 * 30:3 * 31]).max() > 0.01  # the joint is drawn
     h = 1e-6
-    fd = (placed(t + h)[0] - placed(t - h)[0]) / (2 * h)
-    gate = ~d.dynamic
-    np.testing.assert_allclose(V[gate], fd[gate], atol=1e-6)
-    assert np.abs(V[gate, 2]).max() > 0.05
+    fd = (shown(t + h)[0] - shown(t - h)[0]) / (2 * h)
+    np.testing.assert_allclose(Vs, fd, atol=1e-6)
+    # the paper's hinge draws nothing: the state is the surface
+    d0, _ = _drive()
+    X, V = state(t)
+    assert d0.shape(X, V, t)[0] is X
 
 
 # -- the paper's events ---------------------------------------------------------------------------

@@ -52,9 +52,9 @@ class Animator:
         self.rest = surf.points
         s = surf.s
         self.tail_base_s = float(s[surf.landmarks["tail_base"]])
-        #: the gate's nodes (behind the tail base, and the joint's ahead of it) move as the
-        #: fluke gate places them, not as springs
-        self.fluke = s > self.tail_base_s - scene.stroke.fluke_joint
+        #: the gate's nodes (behind the tail base) move as the fluke gate places them, not as
+        #: springs
+        self.fluke = s > self.tail_base_s
         self.dynamic = ~self.fluke
         sp_ = scene.springs
         r = scene.regions
@@ -203,16 +203,25 @@ class Animator:
                 self.V_prev + frac * (self.V - self.V_prev))
 
     def positions(self, t: float) -> np.ndarray:
-        """(N, 3) node positions (m) at time t (s)."""
-        return self._state_at(t)[0].copy()
+        """(N, 3) node positions (m) at time t (s): the surface the whale shows, its joint
+        drawn (StrokeDrive.shape)."""
+        X, _ = self._state_at(t)
+        return self.drive.shape(X, None, t)[0].copy()
 
     def displacement(self, t: float) -> np.ndarray:
         """(N, 3) displacement (m) of every node from rest at time t (s)."""
-        return self._state_at(t)[0] - self.rest
+        X, _ = self._state_at(t)
+        return self.drive.shape(X, None, t)[0] - self.rest
 
     def velocity(self, t: float) -> np.ndarray:
         """(N, 3) node velocities (m/s) at time t (s)."""
-        return self._state_at(t)[1].copy()
+        X, V = self._state_at(t)
+        return self.drive.shape(X, V, t)[1].copy()
+
+    def hinge_velocity(self, t: float) -> np.ndarray:
+        """(3,) velocity (m/s) of the fluke's hinge at time t (s): the mean of the spring
+        nodes that carry it."""
+        return self._state_at(t)[1][self.hinge_nodes].mean(axis=0)
 
 
 def _step_target(scene, network, rest, free, smooth: bool, tether) -> tuple[float, float]:

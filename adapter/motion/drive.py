@@ -4,7 +4,8 @@
 of the time-aware right-hand side (:attr:`StrokeDrive.stage_arrays`, the layout of
 gait.drive_place / gait.drive_force) and their coefficients at every stage time
 (:meth:`StrokeDrive.stage_coefficients`). It also places the fluke gate on a state
-(:meth:`StrokeDrive.place`) and, for the paper's stroke, applies the velocity events at the
+(:meth:`StrokeDrive.place`), draws the joint on the surface the whale shows
+(:meth:`StrokeDrive.shape`) and, for the paper's stroke, applies the velocity events at the
 quarter strokes (:meth:`StrokeDrive.event`). The animator owns one.
 """
 
@@ -53,27 +54,24 @@ class DriveArrays(NamedTuple):
     damping: np.ndarray
     #: (2,) the tether's (k, c): stiffness (1/s2) and damping (1/s) on every moving node
     tether: np.ndarray
-    #: (H,) int64, the spring nodes just ahead of the gate whose motion is the body's line
+    #: (H,) int64, the spring nodes just ahead of the tail base whose mean carries the hinge
     hinge_nodes: np.ndarray
-    #: (F,) int64, the fluke gate's nodes (the fluke, and the joint ahead of it)
+    #: (F,) int64, the fluke gate's nodes (behind the tail base)
     fluke_nodes: np.ndarray
-    #: (F, 3) their arms from the paper's hinge at rest (m)
+    #: (F, 3) their arms from the hinge at rest (m)
     arm0: np.ndarray
     #: (3,) the hinge nodes' mean at rest (m)
     hinge0: np.ndarray
-    #: (F, 2) per gate node (b, lever): its share of the fluke's turn and its lever on the
-    #: body line's slope (gait.place_gate); (1, 0) everywhere for the paper's hinge
-    joint: np.ndarray
 
     @classmethod
     def none(cls) -> DriveArrays:
         """The drive of a free network: no stroke force, no kinematic nodes."""
         nodes, values = np.zeros(0, dtype=np.int64), np.zeros(0)
         return cls(np.zeros((0, 3)), nodes, values, values, np.zeros(2), nodes, nodes,
-                   np.zeros((0, 3)), np.zeros(3), np.zeros((0, 2)))
+                   np.zeros((0, 3)), np.zeros(3))
 
 
-#: half-width (fraction of L) of the band of body nodes just ahead of the tail base whose
+#: half the depth (fraction of L) of the band of body nodes just ahead of the tail base whose
 #: mean motion carries the fluke hinge
 HINGE_BAND = 0.015
 
@@ -96,33 +94,23 @@ class StrokeDrive:
 
     def __init__(self, scene, rest, s, tail_base_s, dynamic, profile, network):
         self.rest, self.dynamic, self.profile = rest, dynamic, profile
-        joint = scene.stroke.fluke_joint
-        behind = s > tail_base_s
         # the paper's hinge: the mean of the body nodes just ahead of the tail base
-        paper_band = ~behind & (s > tail_base_s - 2 * HINGE_BAND)
-        # the body's line is taken just ahead of the gate (of the joint, when there is one),
-        # from at least two stations along the body (a coarse whale's rings are far apart)
-        width = 2 * HINGE_BAND
-        band = dynamic & (s > tail_base_s - joint - width)
-        while joint > 0 and (band.sum() == 0 or np.ptp(s[band]) < 1e-9) and width < 1.0:
-            width *= 1.5
-            band = dynamic & (s > tail_base_s - joint - width)
-        if band.sum() < 3 or paper_band.sum() < 3:
+        band = dynamic & (s > tail_base_s - 2 * HINGE_BAND)
+        if band.sum() < 3:
             raise GeometryError(
                 "too few body nodes just ahead of the tail base to carry the fluke hinge; "
                 "check geometry.landmarks.tail_base"
             )
         self.hinge_nodes = np.flatnonzero(band)
         self.hinge0 = rest[self.hinge_nodes].mean(axis=0)
-        hinge = rest[paper_band].mean(axis=0)
         self._fluke_nodes = np.flatnonzero(~dynamic)
-        self._fluke_arm = rest[self._fluke_nodes] - hinge
-        #: per gate node (b, lever): its share of the fluke's turn and its lever on the body
-        #: line's slope (gait.place_gate); b = 1 and lever 0 everywhere for the paper's hinge
-        b = joint_blend(s[self._fluke_nodes], tail_base_s, joint)
-        x_band = self.hinge0[0]
-        lever = (1 - b) * (rest[self._fluke_nodes, 0] - x_band) + b * (hinge[0] - x_band)
-        self._fluke_joint = np.column_stack([b, lever])
+        self._fluke_arm = rest[self._fluke_nodes] - self.hinge0
+        joint = scene.stroke.fluke_joint
+        #: the nodes the joint draws (the peduncle within ``fluke_joint`` of the tail base,
+        #: and the fluke), each with its share b of the fluke's turn (:meth:`shape`)
+        self.joint_nodes = np.flatnonzero(s > tail_base_s - joint) if joint > 0 else _labels(())
+        self._joint_b = joint_blend(s[self.joint_nodes], tail_base_s, joint)[:, None]
+        self._joint_arm = rest[self.joint_nodes] - self.hinge0
         st = scene.stroke
         #: "smooth" (a continuous push along the profile) or "negate" (the paper's events)
         self.reversal = st.reversal
@@ -147,7 +135,7 @@ class StrokeDrive:
             _floats(rest), _labels(some), _floats(profile[moving][: len(some)]),
             _floats(moving_damping[: len(some)]), _floats(self.tether),
             _labels(self.hinge_nodes), _labels(self._fluke_nodes), _floats(self._fluke_arm),
-            _floats(self.hinge0), _floats(self._fluke_joint))
+            _floats(self.hinge0))
 
     def stage_coefficients(self, t: float, dt: float, stages) -> np.ndarray:
         """(len(stages), 5) rows (G'(s), G(s), D(s), theta(s), theta'(s)) at the stage times
@@ -179,7 +167,42 @@ class StrokeDrive:
         at t."""
         theta, theta_dot = self.fluke_angle(t)
         place_gate(X, V, self.rest, self.hinge_nodes, self._fluke_nodes, self._fluke_arm,
-                   self.hinge0, theta, theta_dot, self._fluke_joint)
+                   self.hinge0, theta, theta_dot)
+
+    def shape(self, X: np.ndarray, V: np.ndarray | None, t: float):
+        """The surface the whale shows at t, from its state (X, V) at t: the state itself with
+        the paper's hinge, else new arrays with the joint drawn (V None: positions only).
+
+        The state is the paper's: the springs move the body up to the tail base and the gate
+        turns the fluke about the hinge, which folds the surface there. The joint bends it
+        instead: node m of :attr:`joint_nodes` is shown at
+
+            (1 - b_m) X_m + b_m (hinge + R(theta) arm_m)
+
+        the blend (b_m of :func:`~adapter.motion.gait.joint_blend`: 0 where the joint meets
+        the body, 1 at the tail base and on the fluke) of where the springs put it and where
+        the gate would, turning it rigidly with the fluke about the hinge. So the blades are
+        the paper's gate whatever the joint's length, and only the peduncle's surface within
+        the joint is drawn. Velocities are the time derivative of the same expression."""
+        if not len(self.joint_nodes):
+            return X, V
+        theta, theta_dot = self.fluke_angle(t)
+        c, s = math.cos(theta), math.sin(theta)
+        hinge = X[self.hinge_nodes].mean(axis=0)
+        ax, ay, az = self._joint_arm.T
+        rx, rz = c * ax - s * az, s * ax + c * az
+        gate = np.column_stack([hinge[0] + rx, hinge[1] + ay, hinge[2] + rz])
+        b, k = self._joint_b, self.joint_nodes
+        Xs = X.copy()
+        Xs[k] = (1 - b) * X[k] + b * gate
+        if V is None:
+            return Xs, None
+        v = V[self.hinge_nodes].mean(axis=0)
+        gate_v = np.column_stack([v[0] - theta_dot * rz, np.full_like(rx, v[1]),
+                                  v[2] + theta_dot * rx])
+        Vs = V.copy()
+        Vs[k] = (1 - b) * V[k] + b * gate_v
+        return Xs, Vs
 
     def event(self, V: np.ndarray, n: int, steps_per_quarter: int) -> None:
         """The stroke's velocity change (in place) on arriving at internal step ``n``.

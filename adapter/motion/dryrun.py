@@ -109,7 +109,7 @@ def run(scene, out: Path, cycles: int | None = None, progress: bool = True,
             vol.append(surf.volume(X))
             V = a.velocity(t)
             mom_rate.append(np.linalg.norm(momentum_rate(a.network, X, V)))
-            aoa.append(fluke_angle_of_attack(a, t, V, scene.flow.speed_m_s))
+            aoa.append(fluke_angle_of_attack(a, t, scene.flow.speed_m_s))
         if write_files and key in frame_index:
             name = f"whale_{frame_index[key]:04d}.vtp"
             surf_write(surf, out / name, X, d, a.velocity(t))
@@ -200,13 +200,13 @@ def summarise(scene, a, kp, env, bins, vol, volume0, mom_rate, closure, wall) ->
     }
 
 
-def fluke_angle_of_attack(a: Animator, t: float, V: np.ndarray, speed: float) -> float:
+def fluke_angle_of_attack(a: Animator, t: float, speed: float) -> float:
     """Effective angle of attack of the flukes (deg) at t: the gate's pitch plus the angle of
     the water's velocity relative to the hinge, ``theta + atan(w_hinge / U)`` (the usual
     definition for a heaving and pitching foil, taken at its pitch axis; positive: the water
     meets the fluke's lower side)."""
     theta = a.fluke_angle(t)[0]
-    w = float(V[a.hinge_nodes, 2].mean())
+    w = float(a.hinge_velocity(t)[2])
     return float(np.degrees(theta + np.arctan2(w, speed)))
 
 

@@ -27,13 +27,14 @@ reversal, and up and down strokes are mirror images.
 The fluke (every node behind the tail base) is not part of the spring system: it is a gate
 hinged at the tail base, shifted with it and rotated by the angle of a table interpolated in
 time: piecewise linearly with ``"negate"``, by a periodic cubic spline (continuous angular
-velocity) with ``"smooth"``. With ``stroke.fluke_joint`` > 0 (the default scene's 0.06) the
-gate also takes the peduncle over that length ahead of the tail base and bends it instead of
-folding it there: a joint node goes over smoothly from the body's own motion (the springs move
-the body vertically, with a slope along it) to the fluke's turn about the hinge
-(:func:`joint_blend`, :func:`place_gate`), so the surface, and the mesh layers on it, are not
-creased. The gate is a kinematic constraint: the integrators place it on every stage state
-at the stage's time (:func:`drive_place`), and the animator after every step.
+velocity) with ``"smooth"``. That is the paper's hinge, and it folds the surface at the tail
+base; with ``stroke.fluke_joint`` > 0 (the default scene's 0.06) the surface shown draws the
+peduncle over that length ahead of the tail base as a smooth blend from where the springs put
+it to where the fluke's turn would carry it (:func:`joint_blend`,
+:meth:`~adapter.motion.drive.StrokeDrive.shape`), so the surface, and the mesh layers on it, are
+not creased, while the springs and the blades move as the paper has them. The gate is a
+kinematic constraint: the integrators place it on every stage state at the stage's time
+(:func:`drive_place`), and the animator after every step.
 """
 
 from __future__ import annotations
@@ -263,26 +264,17 @@ def stroke_force(X, V, out, rest, moving, profile, damping, g_dot, g, d, k, c):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_dot, joint):
-    """Place the gate's nodes (in place): the fluke turned about the hinge, and the joint ahead
-    of it blended from the body's own motion into that turn.
+def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_dot):
+    """Place the paper's fluke gate (in place): every fluke node turned rigidly by the
+    table's angle about the hinge, which moves with the spring nodes just ahead of the tail
+    base (``hinge_nodes``; ``hinge0`` their mean at rest).
 
-    The body's own motion near the tail is a line: every point moves by the mean shift of
-    ``hinge_nodes`` (spring nodes just ahead of the gate) plus a vertical ``g x'``, g the
-    least-squares slope of those nodes' vertical displacement against their rest x and x' the
-    point's rest x less their mean (``hinge0`` is their mean rest position). Gate node m,
-    with ``(b, lever) = joint[m]``, is placed at
-    ``rest + shift + (0, 0, g lever) + b (R(theta) - I) arm0[m]``: ``(R(theta) - I) arm0``
-    turns it rigidly by the table's angle (R as in :func:`rotation_y`, written so that the
-    flat pose is exactly the rest) about the hinge, ``arm0`` being the node's rest position
-    less the hinge's. A fluke node has b = 1 and the lever of the hinge, so the fluke turns
-    rigidly about the hinge as it rides on the body's line; a joint node (:func:`joint_blend`)
-    has b between 0, where it moves as the body does, and 1, and the lever blended alike.
-    With no joint the hinge nodes' mean is the hinge (lever 0): the paper's hinged gate.
-    Velocities are the time derivative of the same expression.
+    Gate node m is placed at ``rest + shift + (R(theta) - I) arm0[m]``: ``shift`` the hinge
+    nodes' mean displacement, ``arm0`` the node's rest position less ``hinge0`` and R the turn
+    of :func:`rotation_y` (written so that the flat pose is exactly the rest). Velocities are
+    the time derivative of the same expression.
     """
     hx = hy = hz = vx = vy = vz = 0.0
-    mx = 0.0
     for k in hinge_nodes:
         hx += X[k, 0]
         hy += X[k, 1]
@@ -290,33 +282,21 @@ def place_gate(X, V, rest, hinge_nodes, fluke_nodes, arm0, hinge0, theta, theta_
         vx += V[k, 0]
         vy += V[k, 1]
         vz += V[k, 2]
-        mx += rest[k, 0]
     n = hinge_nodes.shape[0]
     sx, sy, sz = hx / n - hinge0[0], hy / n - hinge0[1], hz / n - hinge0[2]
     vx, vy, vz = vx / n, vy / n, vz / n
-    mx /= n
-    # the body's vertical slope there and its rate
-    sxx = sxz = sxv = 0.0
-    for k in hinge_nodes:
-        ex = rest[k, 0] - mx
-        sxx += ex * ex
-        sxz += ex * (X[k, 2] - rest[k, 2])
-        sxv += ex * V[k, 2]
-    # one station only (a coarse whale): no slope to take, the line is the shift alone
-    g, g_dot = (sxz / sxx, sxv / sxx) if sxx > 0.0 else (0.0, 0.0)
     c, s = np.cos(theta), np.sin(theta)
     for m in range(fluke_nodes.shape[0]):
         i = fluke_nodes[m]
-        b, lever = joint[m, 0], joint[m, 1]
         ax, az = arm0[m, 0], arm0[m, 2]
         rx = c * ax - s * az
         rz = s * ax + c * az
-        X[i, 0] = rest[i, 0] + sx + b * (rx - ax)
+        X[i, 0] = rest[i, 0] + sx + (rx - ax)
         X[i, 1] = rest[i, 1] + sy
-        X[i, 2] = rest[i, 2] + sz + g * lever + b * (rz - az)
-        V[i, 0] = vx - b * theta_dot * rz
+        X[i, 2] = rest[i, 2] + sz + (rz - az)
+        V[i, 0] = vx - theta_dot * rz
         V[i, 1] = vy
-        V[i, 2] = vz + g_dot * lever + b * theta_dot * rx
+        V[i, 2] = vz + theta_dot * rx
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -326,11 +306,11 @@ def drive_place(X, V, drive, coef):
     time, inside the step and not only after it.
 
     ``drive`` is :attr:`~adapter.motion.drive.StrokeDrive.stage_arrays` (rest, moving, profile,
-    damping, (k, c), hinge nodes, gate nodes, arms, hinge0, joint), ``coef`` the row
+    damping, (k, c), hinge nodes, gate nodes, arms, hinge0), ``coef`` the row
     (G'(t), G(t), D(t), theta(t), theta'(t)) at the stage's time t."""
-    rest, _, _, _, _, hinge, fluke, arm0, hinge0, joint = drive
+    rest, _, _, _, _, hinge, fluke, arm0, hinge0 = drive
     if fluke.shape[0] > 0:
-        place_gate(X, V, rest, hinge, fluke, arm0, hinge0, coef[3], coef[4], joint)
+        place_gate(X, V, rest, hinge, fluke, arm0, hinge0, coef[3], coef[4])
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -338,14 +318,15 @@ def drive_force(X, V, out, drive, coef):
     """Add the stroke's force at the stage's time to ``out`` (the network's force at the stage
     state): :func:`stroke_force` with the arrays of ``drive`` and the row ``coef`` (see
     :func:`drive_place`)."""
-    rest, moving, profile, damping, kc, _, _, _, _, _ = drive
+    rest, moving, profile, damping, kc, _, _, _, _ = drive
     stroke_force(X, V, out, rest, moving, profile, damping, coef[0], coef[1], coef[2],
                  kc[0], kc[1])
 
 
 def joint_blend(s: np.ndarray, tail_base_s: float, joint: float) -> np.ndarray:
-    """How far each gate node has gone over from the body's own motion to the fluke's rigid
-    turn (the b of :func:`place_gate`): 1 on the fluke (behind the tail base); over a joint of
+    """How far each node of the drawn surface has gone over from where the springs put it to
+    the fluke's rigid turn (the b of :meth:`~adapter.motion.drive.StrokeDrive.shape`): 1 on
+    the fluke (behind the tail base); over a joint of
     length ``joint`` (fraction of L) ahead of the tail base, the quintic
     :func:`smootherstep` of ``(s - (tail_base - joint)) / joint``, 0 where the joint meets
     the spring-driven body (no crease there), 1 at the tail base (none there either)."""
