@@ -404,3 +404,30 @@ def test_the_chooser_counts_the_band_of_an_unextrapolated_value_and_refuses_dive
     report = A.choose_flow_mesh(div, 0.5)
     assert report["mesh"] is None and report["divergent"] == ["gliding drag (N)"]
     assert report["worst_difference"] == pytest.approx((694.5 - 660.7) / 660.7)
+
+
+def test_the_time_step_check_compares_the_same_cycle_of_both_runs():
+    """The default run stopped after four cycles, the halved step after three: the check takes
+    the third of each, not each run's last (which differ by the periodic tolerance alone)."""
+    period = 1 / 0.13
+    starts = [period * k for k in (1, 2, 3, 4)]
+    base = {"delta_t_s": 0.08, "gliding_drag": 500.0, "swimming_fx": -952.0,
+            "swimming_power": 4400.0,
+            "cycle_means": {"start_s": starts, "fx_N": [-930.0, -960.0, -950.0, -952.0],
+                            "power_W": [4300.0, 4460.0, 4430.0, 4400.0]}}
+    half = {"delta_t_s": 0.04, "gliding_drag": 505.0, "swimming_fx": -965.0,
+            "swimming_power": 4440.0,
+            "cycle_means": {"start_s": starts[:3], "fx_N": [-940.0, -975.0, -965.0],
+                            "power_W": [4350.0, 4470.0, 4451.5]}}
+    ts = A.time_step_check(base, half)
+    assert ts["cycle_start_s"] == pytest.approx(3 * period)
+    assert ts["swimming_fx_change_of_drag"] == pytest.approx(15.0 / 500.0)   # not 13 / 500
+    assert ts["swimming_power_change"] == pytest.approx(21.5 / 4430.0)       # not 40 / 4400
+    assert ts["gliding_drag_change"] == pytest.approx(5.0 / 500.0)
+    assert "(the cycle from 23.08 s in both)" in R.format_study({"cases": {}, "time_step": ts})
+    # an older study's results without cycle means: their last cycles, as before
+    for r in (base, half):
+        del r["cycle_means"]
+    ts = A.time_step_check(base, half)
+    assert ts["cycle_start_s"] is None
+    assert ts["swimming_fx_change_of_drag"] == pytest.approx(13.0 / 500.0)

@@ -68,6 +68,7 @@ def case_result(case: Path) -> dict | None:
         "cost_of_transport": cost.get("cost_of_transport_J_kg_m"),
         "mass_kg": cost.get("mass_kg"),
         "periodic_reached": (cost.get("periodic_change") or {}).get("reached"),
+        "cycle_means": cost.get("cycle_means"),
         "wall_s_per_step": step,
         "wall_s_per_cycle": step * period / dt if step else None,
         "yplus_median": yp.get("median"),
@@ -207,14 +208,7 @@ def analyse(out: Path, scene, cases: list, ratio: float, failed: dict | None = N
         study["meshes"] = mesh_study(meshes)
     base, half = results.get("mesh-2/case"), results.get("mesh-2/dt-half")
     if base and half:
-        drag = abs(base["gliding_drag"]) or float("nan")
-        study["time_step"] = {
-            "delta_t_s": [base["delta_t_s"], half["delta_t_s"]],
-            "gliding_drag_change": abs(half["gliding_drag"] - base["gliding_drag"]) / drag,
-            "swimming_fx_change_of_drag": abs(half["swimming_fx"] - base["swimming_fx"]) / drag,
-            "swimming_power_change": abs(half["swimming_power"] - base["swimming_power"])
-            / abs(base["swimming_power"]),
-        }
+        study["time_step"] = time_step_check(base, half)
     speed_pts = [r for n, r in results.items() if r and (n.startswith("mesh-2/speed-")
                                                          or n == "mesh-2/case")]
     if len({p["speed_m_s"] for p in speed_pts}) >= 2 and any(
@@ -227,6 +221,36 @@ def analyse(out: Path, scene, cases: list, ratio: float, failed: dict | None = N
         mass = next((p["mass_kg"] for p in speed_pts if p.get("mass_kg")), None)
         study["self_propelled"] = self_propelled(speed_pts, mass, fx_band, p_rel)
     return study
+
+
+def time_step_check(base: dict, half: dict) -> dict:
+    """What halving the step does: the gliding drag's change and, over the same stroke cycle
+    (the last whole one both runs measured), mean Fx's (of the gliding drag) and mean power's.
+
+    Each run stops when its own cycle means repeat to within the periodic tolerance (2 % of
+    the drag), so their last cycles can differ by that much on their own, as much as the step
+    moves them; the same cycle of both leaves the step alone. Results without cycle means (an
+    older study) compare their last cycles, as ``cycle_start_s`` None says."""
+    fx_b, fx_h = base["swimming_fx"], half["swimming_fx"]
+    p_b, p_h = base["swimming_power"], half["swimming_power"]
+    start = None
+    cb, ch = base.get("cycle_means") or {}, half.get("cycle_means") or {}
+    if cb.get("start_s") and ch.get("start_s"):
+        common = [(i, j) for i, a in enumerate(cb["start_s"]) for j, b in enumerate(ch["start_s"])
+                  if math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-9)]
+        if common:
+            i, j = common[-1]
+            start = cb["start_s"][i]
+            fx_b, fx_h = cb["fx_N"][i], ch["fx_N"][j]
+            p_b, p_h = cb["power_W"][i], ch["power_W"][j]
+    drag = abs(base["gliding_drag"]) or float("nan")
+    return {
+        "delta_t_s": [base["delta_t_s"], half["delta_t_s"]],
+        "cycle_start_s": start,
+        "gliding_drag_change": abs(half["gliding_drag"] - base["gliding_drag"]) / drag,
+        "swimming_fx_change_of_drag": abs(fx_h - fx_b) / drag,
+        "swimming_power_change": abs(p_h - p_b) / abs(p_b),
+    }
 
 
 def mesh_error(g: dict, k: int) -> float:

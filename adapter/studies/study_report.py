@@ -116,7 +116,9 @@ def format_study(study: dict) -> str:
     if ts:
         lines.append(f"time step {ts['delta_t_s'][0]:.4g} -> {ts['delta_t_s'][1]:.4g} s: drag "
                      f"{ts['gliding_drag_change']:.2%}, Fx {ts['swimming_fx_change_of_drag']:.2%}"
-                     f" of drag, power {ts['swimming_power_change']:.2%}")
+                     f" of drag, power {ts['swimming_power_change']:.2%}"
+                     + (f" (the cycle from {ts['cycle_start_s']:.2f} s in both)"
+                        if ts.get("cycle_start_s") is not None else ""))
     sp = study.get("self_propelled")
     if sp and sp.get("speed_m_s") is not None:
         unc = (f" +- {sp['speed_uncertainty_m_s']:.2g}" if sp.get("speed_uncertainty_m_s")
