@@ -28,7 +28,7 @@ def test_outer_correctors_reach_fvsolution_and_the_mesh_moves_once_a_step(tmp_pa
         assert int(pimple["nOuterCorrectors"]) == n
         assert pimple["moveMeshOuterCorrectors"] in (False, "no")
     assert smoke_scene.case.outer_correctors == 1          # the tests' quick numerics
-    assert load_scene(preset="default").case.outer_correctors == 2
+    assert load_scene(preset="default").case.outer_correctors == 3
     with pytest.raises(SceneError, match="outer_correctors"):
         smoke_scene.replace(case={"outer_correctors": 0})
 

@@ -144,6 +144,7 @@ layers = {layers}
 layer_non_orthogonality = 75.0   # as validated (docs/validation.md); the whale's default is lower
 symmetry = "off"                 # the whole domain: the added mass's confinement is its radius
 turbulence = "laminar"
+outer_correctors = 2             # as validated (docs/validation.md); the whale's default is 3
 dt_s = {PERIOD_S / 100}
 end_time_s = {end}
 writes_per_cycle = 1
