@@ -34,6 +34,14 @@ def _within(low, high=math.inf, ends="[]"):
 _positive, _non_negative, _fraction = _within(0, ends="()"), _within(0), _within(0, 1)
 
 
+def _off_or_above_one(v):
+    """A field's check: 0 (off) or a factor above 1."""
+    return v == 0 or v > 1
+
+
+_off_or_above_one.range = "0 or above 1"  # type: ignore[attr-defined]
+
+
 @dataclass(frozen=True)
 class Geometry:
     """Whale surface: the built-in procedural right whale, or any closed surface mesh file."""
@@ -225,6 +233,9 @@ class Case:
     #: > 0: the weights are the whale points' areas, within (1 + motion_shell) times the
     #: distance to the nearest one (0: off, the nearest points' weights alone)
     motion_shell: float = field(default=0.0, metadata={"check": _non_negative})
+    #: > 1: the blended points also turn with the whale's local rotation, fully within the
+    #: prism layers' thickness, blended out by motion_rotation times it (0: off)
+    motion_rotation: float = field(default=0.0, metadata={"check": _off_or_above_one})
     #: on several ranks (docs/cluster.md): launcher ("": mpirun; ``{np}``: the ranks), the
     #: decomposition, snappyHexMesh on the ranks, reconstructPar; symmetry "auto": half domain
     launcher: str = ""

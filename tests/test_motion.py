@@ -14,7 +14,8 @@ plugin library. Checked:
   quintic smoothstep of the distance to the nearest wall point (computed here from the points);
 - a rigidly rotated wall (``rotation yes``) moves every point within ``innerDistance`` by
   exactly that rotation, and the layer cells keep their volume; without ``rotation`` they do not
-  (the cells shear);
+  (the cells shear); with ``rotationInner`` the rigid turn reaches only that far, and
+  ``rotationInner`` at or beyond ``rotationDistance`` is refused;
 - a restart from an odd written step (``startFrom latestTime``) reproduces the points and U of
   an uninterrupted run to 1e-9, serially and on two MPI ranks; the two ranks' mesh equals the
   serial one (the motion does not depend on the decomposition);
@@ -262,6 +263,43 @@ def test_rotated_wall_turns_the_layer_with_it(tmp_path_factory, rotation):
         # displacement blending translates the layer's outer points with their wall point:
         # the layer shears by the angle (here up to 0.4 rad * 0.06 m ~ 1 cm off)
         assert worst > 1e-3
+
+
+
+#: ``rotationInner``: the rotation in full only this close to the wall (the first rows of the
+#: layer, about 0.01 m each), still blended out by ROT
+ROT_INNER = 0.02
+
+
+def test_rotation_inner_limits_the_rigid_turn(tmp_path_factory):
+    """With ``rotationInner`` below innerDistance the points within it turn rigidly with the
+    wall, those between it and innerDistance do not (psi < 1 there: they shear part way)."""
+    case = tmp_path_factory.mktemp("motion-rotation-inner")
+    make_case(case, "rotate", True, check=f"rotationInner {ROT_INNER};")
+    T.run_utility(case, ["blockMesh"])
+    _pimple(case, 1, "pimpleFoam")
+    p0, wall = points0_and_wall(case)
+    r = np.min(np.linalg.norm(p0[:, None, :] - p0[wall][None, :, :], axis=2), axis=1)
+    inside = (r > 0) & (r < ROT_INNER)
+    band = (r > ROT_INNER + 0.005) & (r < INNER)
+    assert inside.sum() > len(wall) and band.sum() > len(wall)
+    rigid, band_off = 0.0, 0.0
+    for step in range(1, N_STEPS + 1):
+        angle = ANGLE * np.sin(OMEGA * step * DT)
+        pts = read_points(case / _tname(step) / "polyMesh" / "points")
+        rigid = max(rigid, np.abs(pts[inside] - _rotated(p0[inside], angle)).max())
+        band_off = max(band_off, np.abs(pts[band] - _rotated(p0[band], angle)).max())
+    assert rigid < 1e-9
+    assert band_off > 1e-4
+
+
+def test_rotation_inner_beyond_rotation_distance_is_refused(tmp_path):
+    case = tmp_path / "bad"
+    make_case(case, "rotate", True, check=f"rotationInner {ROT + 0.1};")
+    T.run_utility(case, ["blockMesh"])
+    with pytest.raises(SolverRunError):
+        T.run_utility(case, ["pimpleFoam"], log_name="pimpleFoam")
+    assert "rotationInner < rotationDistance" in (case / "log.pimpleFoam").read_text()
 
 
 #: ``shell``: the area-weighted blend within (1 + SHELL) times the distance to the wall

@@ -163,6 +163,11 @@ def _write_mesh_motion(case: Path, c, p: CaseParameters, static_whale: bool) -> 
         coeffs["nNeighbours"] = c.motion_neighbours
         coeffs["power"] = c.motion_power
         coeffs["shell"] = c.motion_shell
+        # the layer cells turn with the wall (a leading edge's fan of layer cells keeps its shape)
+        coeffs["rotation"] = "yes" if c.motion_rotation > 0 else "no"
+        if c.motion_rotation > 0:
+            coeffs["rotationInner"] = p.rotation_inner_m
+            coeffs["rotationDistance"] = p.rotation_distance_m
         # the new points checked before the mesh moves: an invalid mesh stops the run first
         coeffs["checkMotion"] = "yes"
     else:

@@ -41,6 +41,10 @@ class CaseParameters:
         outerDistance (m): ``case.motion_inner`` / ``motion_outer`` body lengths, the outer one
         at most 0.8 of the gap between the body's bounding box and the nearest domain face
         (the outer boundaries stay put), the inner one at most half the outer one.
+    rotation_inner_m, rotation_distance_m : with ``case.motion_rotation`` > 0, the blended
+        points turn with the whale's local rotation fully within rotation_inner_m, the prism
+        layers' thickness (the first layer's alone without layers), and not beyond
+        rotation_distance_m, motion_rotation times it; 0 and 0 without rotation.
     """
 
     domain_min: tuple
@@ -64,6 +68,14 @@ class CaseParameters:
     inflow_ramp_s: float = 0.0
     motion_inner_m: float = 0.5
     motion_outer_m: float = 10.0
+    rotation_inner_m: float = 0.0
+    rotation_distance_m: float = 0.0
+
+
+def layer_stack_m(c) -> float:
+    """The prism layers' thickness (m): ``first_layer_m`` growing by ``layer_expansion`` over
+    ``layers``; the first layer's alone when there are none."""
+    return c.first_layer_m * sum(c.layer_expansion ** i for i in range(max(1, c.layers)))
 
 
 def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
@@ -121,6 +133,7 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
     gap = float(min((lo - dmin).min(), (dmax - hi).min()))
     outer = min(c.motion_outer * length, 0.8 * gap)
     inner = min(c.motion_inner * length, 0.5 * outer)
+    rotation_inner = layer_stack_m(c) if c.motion_rotation > 0 else 0.0
     k = 1.5 * (TURBULENCE_INTENSITY * speed) ** 2
     omega = k / (EDDY_VISCOSITY_RATIO * scene.flow.nu_m2_s)
     return CaseParameters(
@@ -145,6 +158,8 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
         inflow_ramp_s=c.inflow_ramp_cycles * scene.period_s,
         motion_inner_m=float(inner),
         motion_outer_m=float(outer),
+        rotation_inner_m=float(rotation_inner),
+        rotation_distance_m=float(c.motion_rotation * rotation_inner),
     )
 
 

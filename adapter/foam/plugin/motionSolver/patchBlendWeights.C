@@ -30,6 +30,7 @@ Foam::patchBlendWeights::patchBlendWeights(
     const scalar power,
     const scalar innerDistance,
     const scalar outerDistance,
+    const scalar rotationInner,
     const scalar rotationDistance,
     const scalar shell,
     const scalarField& areas
@@ -115,7 +116,7 @@ Foam::patchBlendWeights::patchBlendWeights(
         }
         offsets.append(sources.size());
         psi.append(smoothstep5(
-            (rotationDistance - r1) / (rotationDistance - innerDistance)
+            (rotationDistance - r1) / (rotationDistance - rotationInner)
         ));
     }
 

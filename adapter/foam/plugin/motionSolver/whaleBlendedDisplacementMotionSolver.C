@@ -48,20 +48,23 @@ void Foam::whaleBlendedDisplacementMotionSolver::readCoeffs()
     innerDistance_ = dict.getOrDefault<scalar>("innerDistance", 0.5);
     outerDistance_ = dict.get<scalar>("outerDistance");
     rotation_ = dict.getOrDefault<bool>("rotation", false);
+    rotationInner_ = dict.getOrDefault<scalar>("rotationInner", innerDistance_);
     rotationDistance_ = dict.getOrDefault<scalar>("rotationDistance", 2);
     shell_ = dict.getOrDefault<scalar>("shell", 0);
     checkMotion_ = dict.getOrDefault<bool>("checkMotion", true);
 
     if (nNeighbours_ < 1 || power_ <= 0 || innerDistance_ < 0
         || outerDistance_ <= innerDistance_
-        || rotationDistance_ <= innerDistance_ || shell_ < 0)
+        || rotationInner_ < 0 || rotationDistance_ <= rotationInner_
+        || shell_ < 0)
     {
         FatalIOErrorInFunction(dict)
             << "need nNeighbours >= 1, power > 0, 0 <= innerDistance"
-            << " < outerDistance, innerDistance < rotationDistance, shell >= 0;"
-               " got nNeighbours "
+            << " < outerDistance, 0 <= rotationInner < rotationDistance,"
+               " shell >= 0; got nNeighbours "
             << nNeighbours_ << ", power " << power_ << ", innerDistance "
             << innerDistance_ << ", outerDistance " << outerDistance_
+            << ", rotationInner " << rotationInner_
             << ", rotationDistance " << rotationDistance_ << ", shell "
             << shell_ << exit(FatalIOError);
     }
@@ -111,6 +114,7 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
         power_,
         innerDistance_,
         outerDistance_,
+        rotationInner_,
         rotationDistance_,
         shell_,
         areas
@@ -127,7 +131,12 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
          << " rank(s)); " << returnReduce(weights_->size(), sumOp<label>())
          << " mesh points blended (K " << K << ", power " << power_
          << ", innerDistance " << innerDistance_ << ", outerDistance "
-         << outerDistance_ << ", rotation " << rotation_ << ", shell " << shell_
+         << outerDistance_ << ", rotation " << rotation_;
+    if (rotation_)
+    {
+        Info << " (" << rotationInner_ << " to " << rotationDistance_ << " m)";
+    }
+    Info << ", shell " << shell_
          << ", checkMotion " << checkMotion_ << ")" << endl;
 
     if (checkMotion_)
