@@ -431,3 +431,36 @@ def test_the_time_step_check_compares_the_same_cycle_of_both_runs():
     ts = A.time_step_check(base, half)
     assert ts["cycle_start_s"] is None
     assert ts["swimming_fx_change_of_drag"] == pytest.approx(13.0 / 500.0)
+
+
+def test_the_mesh_study_compares_the_same_cycle_of_every_mesh():
+    """Mesh 1 stopped after four cycles, meshes 2 and 3 after three: the study takes the third
+    of each (the same flow time on every mesh), not each run's last."""
+    period = 1 / 0.13
+    starts = [period * k for k in (1, 2, 3, 4)]
+
+    def mesh(h, drag, fx, power):
+        n = len(fx)
+        return {"background_cell_m": h, "gliding_drag": drag, "swimming_fx": fx[-1],
+                "swimming_power": power[-1], "wall_s_per_cycle": 40.0 / h, "cells": 1000,
+                "cycle_means": {"start_s": starts[:n], "fx_N": fx, "power_W": power}}
+
+    meshes = {1: mesh(1.0, 520.0, [-1000.0, -1030.0, -1025.0, -1027.0], [4450.0, 4480.0, 4476.0, 4470.0]),
+              2: mesh(1.3, 560.0, [-950.0, -980.0, -971.0], [4400.0, 4490.0, 4460.0]),
+              3: mesh(1.69, 605.0, [-850.0, -880.0, -874.0], [4300.0, 4390.0, 4383.0])}
+    matched, start = A.same_cycle(meshes)
+    assert start == pytest.approx(3 * period)
+    assert [matched[k]["swimming_fx"] for k in (1, 2, 3)] == [-1025.0, -971.0, -874.0]
+    assert [matched[k]["swimming_power"] for k in (1, 2, 3)] == [4476.0, 4460.0, 4383.0]
+    assert meshes[1]["swimming_fx"] == -1027.0            # the caller's results untouched
+    ms = A.meshes_compared(meshes)
+    assert ms["cycle_start_s"] == pytest.approx(3 * period)
+    assert ms["figures"]["swimming_fx"]["values"] == [-1025.0, -971.0, -874.0]
+    cases = {f"mesh-{k}/case": meshes[k] for k in (1, 2, 3)}
+    table = R.format_study({"cases": cases, "meshes": ms})
+    assert "Fx and power over the cycle from 23.08 s on every mesh" in table
+    assert "   -1025.0     4476.0" in table                 # mesh 1's row: cycle 3, not 4
+    # one mesh without cycle means (an older study): every mesh's own last cycle
+    del meshes[2]["cycle_means"]
+    same, start = A.same_cycle(meshes)
+    assert start is None and same[1]["swimming_fx"] == -1027.0

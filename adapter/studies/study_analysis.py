@@ -198,6 +198,47 @@ def self_propelled(points: list, mass: float | None, fx_band: float | None = Non
     return out
 
 
+def _last_common_cycle(results: list) -> list:
+    """For each result, the index of the last stroke cycle that every result measured (matched
+    by its start time), or None for all when one has no cycle means or there is none."""
+    starts = [(r.get("cycle_means") or {}).get("start_s") for r in results]
+    if not all(starts):
+        return [None] * len(results)
+    for a in reversed(starts[0]):
+        idx = [next((j for j, b in enumerate(st)
+                     if math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-9)), None) for st in starts]
+        if all(i is not None for i in idx):
+            return idx
+    return [None] * len(results)
+
+
+def same_cycle(meshes: dict) -> tuple[dict, float | None]:
+    """The meshes' results ({1: ..., 2: ..., 3: ...}) with mean Fx and mean power taken over
+    the last stroke cycle all three measured, and that cycle's start (s).
+
+    Each run stops when its own cycle means repeat to within the periodic tolerance, so one
+    mesh may stop a cycle later than another and its last cycle differ from theirs by that
+    tolerance alone; the same cycle of every mesh leaves the mesh's effect alone. Results
+    without cycle means (an older study) keep their own last cycles (start None)."""
+    keys = sorted(meshes)
+    idx = _last_common_cycle([meshes[k] for k in keys])
+    if idx[0] is None:
+        return meshes, None
+    out = {}
+    for k, i in zip(keys, idx):
+        c = meshes[k]["cycle_means"]
+        out[k] = {**meshes[k], "swimming_fx": c["fx_N"][i], "swimming_power": c["power_W"][i]}
+    return out, meshes[keys[0]]["cycle_means"]["start_s"][idx[0]]
+
+
+def meshes_compared(meshes: dict) -> dict:
+    """study.json's "meshes": :func:`mesh_study` over the last cycle every mesh measured
+    (:func:`same_cycle`), with that cycle's start (``cycle_start_s``, None for an older study
+    whose results have no cycle means)."""
+    matched, start = same_cycle(meshes)
+    return {**mesh_study(matched), "cycle_start_s": start}
+
+
 def analyse(out: Path, scene, cases: list, ratio: float, failed: dict | None = None) -> dict:
     """study.json's content from the finished cases."""
     results = {c["name"]: case_result(out / c["name"]) for c in cases}
@@ -205,7 +246,7 @@ def analyse(out: Path, scene, cases: list, ratio: float, failed: dict | None = N
              "not_finished": [n for n, r in results.items() if r is None]}
     meshes = {k: results.get(f"mesh-{k}/case") for k in (1, 2, 3)}
     if all(meshes.values()):
-        study["meshes"] = mesh_study(meshes)
+        study["meshes"] = meshes_compared(meshes)
     base, half = results.get("mesh-2/case"), results.get("mesh-2/dt-half")
     if base and half:
         study["time_step"] = time_step_check(base, half)

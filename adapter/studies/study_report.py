@@ -88,13 +88,19 @@ def format_study(study: dict) -> str:
     if any(r for _, r in rows):
         lines.append(f"{'mesh':<8}{'cells':>10}{'cell (m)':>10}{'drag (N)':>11}{'Fx (N)':>10}"
                      f"{'power (W)':>11}{'s/cycle':>9}")
-        for name, r in rows:
+        # with the meshes' analysis: Fx and power over the cycle it compared on every mesh
+        figs = ms["figures"] if ms and ms.get("cycle_start_s") is not None else {}
+        for k, (name, r) in enumerate(rows):
             if r:
+                fx, power = (figs[key]["values"][k] if key in figs else r[key]
+                             for key in ("swimming_fx", "swimming_power"))
                 lines.append(f"{name:<8}{r['cells'] or 0:>10,}{r['background_cell_m']:>10.3g}"
-                             f"{r['gliding_drag']:>11.1f}{r['swimming_fx']:>10.1f}"
-                             f"{r['swimming_power']:>11.1f}{r['wall_s_per_cycle'] or 0:>9.0f}")
+                             f"{r['gliding_drag']:>11.1f}{fx:>10.1f}"
+                             f"{power:>11.1f}{r['wall_s_per_cycle'] or 0:>9.0f}")
     if ms:
-        lines.append(f"refinement ratios r21 {ms['r21']:.3f}, r32 {ms['r32']:.3f}")
+        lines.append(f"refinement ratios r21 {ms['r21']:.3f}, r32 {ms['r32']:.3f}"
+                     + (f"; Fx and power over the cycle from {ms['cycle_start_s']:.2f} s on "
+                        "every mesh" if ms.get("cycle_start_s") is not None else ""))
         for g in ms["figures"].values():
             used = g.get("reference") == "extrapolated"
             ext = f"{g['extrapolated']:.1f}" if used else "-"
