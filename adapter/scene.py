@@ -34,14 +34,6 @@ def _within(low, high=math.inf, ends="[]"):
 _positive, _non_negative, _fraction = _within(0, ends="()"), _within(0), _within(0, 1)
 
 
-def _off_or_above_one(v):
-    """A field's check: 0 (off) or a factor above 1."""
-    return v == 0 or v > 1
-
-
-_off_or_above_one.range = "0 or above 1"  # type: ignore[attr-defined]
-
-
 @dataclass(frozen=True)
 class Geometry:
     """Whale surface: the built-in procedural right whale, or any closed surface mesh file."""
@@ -226,16 +218,15 @@ class Case:
     mesh_motion: str = field(default="blended", metadata={"choices": ("blended", "laplacian")})
     motion_inner: float = field(default=1.0 / 30.0, metadata={"check": _non_negative})
     motion_outer: float = field(default=2.0 / 3.0, metadata={"check": _positive})
-    #: the whale points each blended mesh point follows, weighted by inverse distance to the
-    #: power motion_power
-    motion_neighbours: int = field(default=16, metadata={"check": _within(2, 256)})
+    #: each blended point follows this many whale points, weighted by 1 / distance**motion_power
+    motion_neighbours: int = field(default=16, metadata={"check": _within(2, 1024)})
     motion_power: float = field(default=3.0, metadata={"check": _within(1, 6)})
-    #: > 0: the weights are the whale points' areas, within (1 + motion_shell) times the
-    #: distance to the nearest one (0: off, the nearest points' weights alone)
+    #: > 0: the weights are the whale points' areas within (1 + motion_shell) r_nearest
     motion_shell: float = field(default=0.0, metadata={"check": _non_negative})
-    #: > 1: the blended points also turn with the whale's local rotation, fully within the
-    #: prism layers' thickness, blended out by motion_rotation times it (0: off)
-    motion_rotation: float = field(default=0.0, metadata={"check": _off_or_above_one})
+    #: > 0: the points also turn with the whale, in full within the prism layers and blended out
+    #: over motion_rotation layer thicknesses beyond them (rotations fitted to so many points)
+    motion_rotation: float = field(default=0.0, metadata={"check": _non_negative})
+    motion_rotation_neighbours: int = field(default=16, metadata={"check": _within(3, 1024)})
     #: on several ranks (docs/cluster.md): launcher ("": mpirun; ``{np}``: the ranks), the
     #: decomposition, snappyHexMesh on the ranks, reconstructPar; symmetry "auto": half domain
     launcher: str = ""

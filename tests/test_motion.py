@@ -15,7 +15,8 @@ plugin library. Checked:
 - a rigidly rotated wall (``rotation yes``) moves every point within ``innerDistance`` by
   exactly that rotation, and the layer cells keep their volume; without ``rotation`` they do not
   (the cells shear); with ``rotationInner`` the rigid turn reaches only that far, and
-  ``rotationInner`` at or beyond ``rotationDistance`` is refused;
+  ``rotationInner`` at or beyond ``rotationDistance``, or a rotation fitted to fewer than 3
+  points (``rotationNeighbours``), is refused;
 - a restart from an odd written step (``startFrom latestTime``) reproduces the points and U of
   an uninterrupted run to 1e-9, serially and on two MPI ranks; the two ranks' mesh equals the
   serial one (the motion does not depend on the decomposition);
@@ -293,13 +294,17 @@ def test_rotation_inner_limits_the_rigid_turn(tmp_path_factory):
     assert band_off > 1e-4
 
 
-def test_rotation_inner_beyond_rotation_distance_is_refused(tmp_path):
+@pytest.mark.parametrize("entry, says", [
+    (f"rotationInner {ROT + 0.1};", "rotationInner < rotationDistance"),
+    ("rotationNeighbours 2;", "rotationNeighbours >= 3"),
+])
+def test_bad_rotation_coefficients_are_refused(tmp_path, entry, says):
     case = tmp_path / "bad"
-    make_case(case, "rotate", True, check=f"rotationInner {ROT + 0.1};")
+    make_case(case, "rotate", True, check=entry)
     T.run_utility(case, ["blockMesh"])
     with pytest.raises(SolverRunError):
         T.run_utility(case, ["pimpleFoam"], log_name="pimpleFoam")
-    assert "rotationInner < rotationDistance" in (case / "log.pimpleFoam").read_text()
+    assert says in (case / "log.pimpleFoam").read_text()
 
 
 #: ``shell``: the area-weighted blend within (1 + SHELL) times the distance to the wall

@@ -78,20 +78,22 @@ def test_the_motion_weights_reach_dynamicmeshdict(tmp_path, smoke_scene, smoke_s
 def test_the_layer_rotation_reaches_dynamicmeshdict(tmp_path, smoke_scene, smoke_surface):
     """``case.motion_rotation``: rotation in full over the prism layers' thickness, by hand
     7 mm + 10.5 mm + 15.75 mm = 33.25 mm for three layers from 7 mm growing by 1.5, and
-    blended out by the factor times that."""
+    blended out over that many layer thicknesses beyond them (2: to 3 x 33.25 mm)."""
     scene = smoke_scene.replace(case={"layers": 3, "first_layer_m": 0.007,
-                                      "layer_expansion": 1.5, "motion_rotation": 3.0})
+                                      "layer_expansion": 1.5, "motion_rotation": 2.0})
     C.prepare_case(scene, tmp_path / "on", surface=smoke_surface)
     coeffs = ParsedParameterFile(str(tmp_path / "on" / "constant" / "dynamicMeshDict"))[
         "whaleBlendedDisplacementCoeffs"]
     assert str(coeffs["rotation"]) == "yes"
     assert float(coeffs["rotationInner"]) == pytest.approx(0.03325, abs=1e-12)
     assert float(coeffs["rotationDistance"]) == pytest.approx(3 * 0.03325, abs=1e-12)
+    assert int(coeffs["rotationNeighbours"]) == 16
     C.prepare_case(scene.replace(case={"motion_rotation": 0.0}), tmp_path / "off",
                    surface=smoke_surface)
     coeffs = ParsedParameterFile(str(tmp_path / "off" / "constant" / "dynamicMeshDict"))[
         "whaleBlendedDisplacementCoeffs"]
     assert str(coeffs["rotation"]) == "no"
-    for bad in (0.5, 1.0, -2.0):
-        with pytest.raises(SceneError, match="motion_rotation"):
-            smoke_scene.replace(case={"motion_rotation": bad})
+    with pytest.raises(SceneError, match="motion_rotation"):
+        smoke_scene.replace(case={"motion_rotation": -2.0})
+    with pytest.raises(SceneError, match="motion_rotation_neighbours"):
+        smoke_scene.replace(case={"motion_rotation_neighbours": 2})

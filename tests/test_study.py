@@ -445,7 +445,8 @@ def test_the_mesh_study_compares_the_same_cycle_of_every_mesh():
                 "swimming_power": power[-1], "wall_s_per_cycle": 40.0 / h, "cells": 1000,
                 "cycle_means": {"start_s": starts[:n], "fx_N": fx, "power_W": power}}
 
-    meshes = {1: mesh(1.0, 520.0, [-1000.0, -1030.0, -1025.0, -1027.0], [4450.0, 4480.0, 4476.0, 4470.0]),
+    meshes = {1: mesh(1.0, 520.0, [-1000.0, -1030.0, -1025.0, -1027.0],
+                      [4450.0, 4480.0, 4476.0, 4470.0]),
               2: mesh(1.3, 560.0, [-950.0, -980.0, -971.0], [4400.0, 4490.0, 4460.0]),
               3: mesh(1.69, 605.0, [-850.0, -880.0, -874.0], [4300.0, 4390.0, 4383.0])}
     matched, start = A.same_cycle(meshes)

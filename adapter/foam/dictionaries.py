@@ -168,6 +168,7 @@ def _write_mesh_motion(case: Path, c, p: CaseParameters, static_whale: bool) -> 
         if c.motion_rotation > 0:
             coeffs["rotationInner"] = p.rotation_inner_m
             coeffs["rotationDistance"] = p.rotation_distance_m
+            coeffs["rotationNeighbours"] = c.motion_rotation_neighbours
         # the new points checked before the mesh moves: an invalid mesh stops the run first
         coeffs["checkMotion"] = "yes"
     else:

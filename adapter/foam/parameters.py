@@ -44,7 +44,7 @@ class CaseParameters:
     rotation_inner_m, rotation_distance_m : with ``case.motion_rotation`` > 0, the blended
         points turn with the whale's local rotation fully within rotation_inner_m, the prism
         layers' thickness (the first layer's alone without layers), and not beyond
-        rotation_distance_m, motion_rotation times it; 0 and 0 without rotation.
+        rotation_distance_m, (1 + motion_rotation) times it; 0 and 0 without rotation.
     """
 
     domain_min: tuple
@@ -78,6 +78,13 @@ def layer_stack_m(c) -> float:
     return c.first_layer_m * sum(c.layer_expansion ** i for i in range(max(1, c.layers)))
 
 
+def _layer_rotation(c) -> dict:
+    """The rotation's reach with ``case.motion_rotation`` > 0: in full within the prism layers,
+    blended out over motion_rotation layer thicknesses beyond them; 0 and 0 without."""
+    inner = layer_stack_m(c) if c.motion_rotation > 0 else 0.0
+    return {"rotation_inner_m": inner, "rotation_distance_m": (1 + c.motion_rotation) * inner}
+
+
 def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
                     length: float | None = None) -> CaseParameters:
     """The case's numbers from the scene and the whale's bounding box.
@@ -94,11 +101,10 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
     metres when > 0). The domain reaches ``upstream`` body lengths before the rostrum,
     ``downstream`` after the flukes and ``half_width`` to each side and above and below the
     body's centre. The time step is ``0.5 * smallest cell / U`` unless ``case.dt_s > 0``;
-    either is rounded down so that the write interval (one stroke cycle /
-    ``writes_per_cycle``) is a whole number of steps, then down to a binary fraction
-    (:func:`_binary_step`), and the end time is rounded up to a whole number of write
-    intervals (at most a tenth of one short) so that a run ends on a
-    written (restartable) time.
+    either is rounded down so that the write interval (one stroke cycle / ``writes_per_cycle``)
+    is a whole number of steps, then down to a binary fraction (:func:`_binary_step`), and the
+    end time is rounded up to a whole number of write intervals (at most a tenth of one short)
+    so that a run ends on a written (restartable) time.
     """
     c = scene.case
     length = float(length) if length else scene.geometry.length_m
@@ -133,7 +139,6 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
     gap = float(min((lo - dmin).min(), (dmax - hi).min()))
     outer = min(c.motion_outer * length, 0.8 * gap)
     inner = min(c.motion_inner * length, 0.5 * outer)
-    rotation_inner = layer_stack_m(c) if c.motion_rotation > 0 else 0.0
     k = 1.5 * (TURBULENCE_INTENSITY * speed) ** 2
     omega = k / (EDDY_VISCOSITY_RATIO * scene.flow.nu_m2_s)
     return CaseParameters(
@@ -158,8 +163,7 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
         inflow_ramp_s=c.inflow_ramp_cycles * scene.period_s,
         motion_inner_m=float(inner),
         motion_outer_m=float(outer),
-        rotation_inner_m=float(rotation_inner),
-        rotation_distance_m=float(c.motion_rotation * rotation_inner),
+        **_layer_rotation(c),
     )
 
 

@@ -201,7 +201,7 @@ def self_propelled(points: list, mass: float | None, fx_band: float | None = Non
 def _last_common_cycle(results: list) -> list:
     """For each result, the index of the last stroke cycle that every result measured (matched
     by its start time), or None for all when one has no cycle means or there is none."""
-    starts = [(r.get("cycle_means") or {}).get("start_s") for r in results]
+    starts: list = [(r.get("cycle_means") or {}).get("start_s") or [] for r in results]
     if not all(starts):
         return [None] * len(results)
     for a in reversed(starts[0]):
@@ -225,7 +225,7 @@ def same_cycle(meshes: dict) -> tuple[dict, float | None]:
     if idx[0] is None:
         return meshes, None
     out = {}
-    for k, i in zip(keys, idx):
+    for k, i in zip(keys, idx, strict=True):
         c = meshes[k]["cycle_means"]
         out[k] = {**meshes[k], "swimming_fx": c["fx_N"][i], "swimming_power": c["power_W"][i]}
     return out, meshes[keys[0]]["cycle_means"]["start_s"][idx[0]]

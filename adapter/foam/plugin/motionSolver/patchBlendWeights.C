@@ -157,11 +157,22 @@ void Foam::patchBlendWeights::apply(
         const label pointi = points_[i];
         const point& x = p0[pointi];
         vector sum(Zero);
-        for (label k = offsets_[i]; k < offsets_[i + 1]; ++k)
+        if (psi_[i] > 0)
         {
-            const label j = sources_[k];
-            sum += weights_[k]
-                * (d[j] + psi_[i] * ((Rm[j] - I) & (x - patchPoints0[j])));
+            for (label k = offsets_[i]; k < offsets_[i + 1]; ++k)
+            {
+                const label j = sources_[k];
+                sum += weights_[k]
+                    * (d[j] + psi_[i] * ((Rm[j] - I) & (x - patchPoints0[j])));
+            }
+        }
+        else
+        {
+            // beyond rotationDistance: the displacements alone
+            for (label k = offsets_[i]; k < offsets_[i + 1]; ++k)
+            {
+                sum += weights_[k] * d[sources_[k]];
+            }
         }
         pd[pointi] = sum;
     }

@@ -48,25 +48,28 @@ void Foam::whaleBlendedDisplacementMotionSolver::readCoeffs()
     innerDistance_ = dict.getOrDefault<scalar>("innerDistance", 0.5);
     outerDistance_ = dict.get<scalar>("outerDistance");
     rotation_ = dict.getOrDefault<bool>("rotation", false);
+    rotationNeighbours_ =
+        dict.getOrDefault<label>("rotationNeighbours", nNeighbours_);
     rotationInner_ = dict.getOrDefault<scalar>("rotationInner", innerDistance_);
     rotationDistance_ = dict.getOrDefault<scalar>("rotationDistance", 2);
     shell_ = dict.getOrDefault<scalar>("shell", 0);
     checkMotion_ = dict.getOrDefault<bool>("checkMotion", true);
 
-    if (nNeighbours_ < 1 || power_ <= 0 || innerDistance_ < 0
-        || outerDistance_ <= innerDistance_
+    if (nNeighbours_ < 1 || (rotation_ && rotationNeighbours_ < 3)
+        || power_ <= 0 || innerDistance_ < 0 || outerDistance_ <= innerDistance_
         || rotationInner_ < 0 || rotationDistance_ <= rotationInner_
         || shell_ < 0)
     {
         FatalIOErrorInFunction(dict)
-            << "need nNeighbours >= 1, power > 0, 0 <= innerDistance"
+            << "need nNeighbours >= 1, rotationNeighbours >= 3, power > 0,"
+            << " 0 <= innerDistance"
             << " < outerDistance, 0 <= rotationInner < rotationDistance,"
                " shell >= 0; got nNeighbours "
-            << nNeighbours_ << ", power " << power_ << ", innerDistance "
-            << innerDistance_ << ", outerDistance " << outerDistance_
-            << ", rotationInner " << rotationInner_
-            << ", rotationDistance " << rotationDistance_ << ", shell "
-            << shell_ << exit(FatalIOError);
+            << nNeighbours_ << ", rotationNeighbours " << rotationNeighbours_
+            << ", power " << power_ << ", innerDistance " << innerDistance_
+            << ", outerDistance " << outerDistance_ << ", rotationInner "
+            << rotationInner_ << ", rotationDistance " << rotationDistance_
+            << ", shell " << shell_ << exit(FatalIOError);
     }
 }
 
@@ -122,7 +125,10 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
 
     if (rotation_)
     {
-        rotations_.reset(new patchPointRotations(tree, K));
+        rotations_.reset(new patchPointRotations(
+            tree,
+            std::min(rotationNeighbours_, tree.size() - 1)
+        ));
     }
 
     Info << typeName << ": patch " << pp.name() << " "
@@ -134,10 +140,11 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
          << outerDistance_ << ", rotation " << rotation_;
     if (rotation_)
     {
-        Info << " (" << rotationInner_ << " to " << rotationDistance_ << " m)";
+        Info << " (" << rotationInner_ << " to " << rotationDistance_
+             << " m, fitted to " << rotationNeighbours_ << " points)";
     }
-    Info << ", shell " << shell_
-         << ", checkMotion " << checkMotion_ << ")" << endl;
+    Info << ", shell " << shell_ << ", checkMotion " << checkMotion_ << ")"
+         << endl;
 
     if (checkMotion_)
     {
