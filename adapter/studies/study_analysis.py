@@ -275,15 +275,12 @@ def time_step_check(base: dict, half: dict) -> dict:
     fx_b, fx_h = base["swimming_fx"], half["swimming_fx"]
     p_b, p_h = base["swimming_power"], half["swimming_power"]
     start = None
-    cb, ch = base.get("cycle_means") or {}, half.get("cycle_means") or {}
-    if cb.get("start_s") and ch.get("start_s"):
-        common = [(i, j) for i, a in enumerate(cb["start_s"]) for j, b in enumerate(ch["start_s"])
-                  if math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-9)]
-        if common:
-            i, j = common[-1]
-            start = cb["start_s"][i]
-            fx_b, fx_h = cb["fx_N"][i], ch["fx_N"][j]
-            p_b, p_h = cb["power_W"][i], ch["power_W"][j]
+    i, j = _last_common_cycle([base, half])
+    if i is not None:
+        cb, ch = base["cycle_means"], half["cycle_means"]
+        start = cb["start_s"][i]
+        fx_b, fx_h = cb["fx_N"][i], ch["fx_N"][j]
+        p_b, p_h = cb["power_W"][i], ch["power_W"][j]
     drag = abs(base["gliding_drag"]) or float("nan")
     return {
         "delta_t_s": [base["delta_t_s"], half["delta_t_s"]],
