@@ -72,16 +72,20 @@ class CaseParameters:
     rotation_distance_m: float = 0.0
 
 
-def layer_stack_m(c) -> float:
-    """The prism layers' thickness (m): ``first_layer_m`` growing by ``layer_expansion`` over
-    ``layers``; the first layer's alone when there are none."""
-    return c.first_layer_m * sum(c.layer_expansion ** i for i in range(max(1, c.layers)))
+def stack_thickness(first: float, layers: int, expansion: float) -> float:
+    """Total thickness of ``layers`` prism layers from ``first`` growing by ``expansion``."""
+    if layers <= 0:
+        return 0.0
+    if abs(expansion - 1.0) < 1e-12:
+        return first * layers
+    return first * (expansion**layers - 1) / (expansion - 1)
 
 
 def _layer_rotation(c) -> dict:
     """The rotation's reach with ``case.motion_rotation`` > 0: in full within the prism layers,
     blended out over motion_rotation layer thicknesses beyond them; 0 and 0 without."""
-    inner = layer_stack_m(c) if c.motion_rotation > 0 else 0.0
+    stack = stack_thickness(c.first_layer_m, c.layers, c.layer_expansion) or c.first_layer_m
+    inner = stack if c.motion_rotation > 0 else 0.0
     return {"rotation_inner_m": inner, "rotation_distance_m": (1 + c.motion_rotation) * inner}
 
 

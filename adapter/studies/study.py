@@ -47,7 +47,7 @@ from adapter.foam.case import Case, prepare_case, write_json
 from adapter.foam.casescene import portable, scene_differences
 from adapter.foam.mesh import mesh_case
 from adapter.foam.parallel import ranks_option
-from adapter.foam.parameters import case_parameters
+from adapter.foam.parameters import case_parameters, stack_thickness
 from adapter.foam.summary import finite
 from adapter.options import default_folder, in_file, number, out_folder, positive
 from adapter.scenefile import write_scene
@@ -70,15 +70,6 @@ _LAYER_FIELDS = ("nSurfaceLayers", "thickness", "thicknessFraction")
 
 # --------------------------------------------------------------------------------------------
 # the meshes and cases
-
-
-def stack_thickness(first: float, layers: int, expansion: float) -> float:
-    """Total thickness of ``layers`` prism layers from ``first`` growing by ``expansion``."""
-    if layers <= 0:
-        return 0.0
-    if abs(expansion - 1.0) < 1e-12:
-        return first * layers
-    return first * (expansion**layers - 1) / (expansion - 1)
 
 
 def layer_rule(first: float, layers: int, expansion: float, scale: float) -> tuple:

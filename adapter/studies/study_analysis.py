@@ -213,8 +213,8 @@ def _last_common_cycle(results: list) -> list:
 
 
 def same_cycle(meshes: dict) -> tuple[dict, float | None]:
-    """The meshes' results ({1: ..., 2: ..., 3: ...}) with mean Fx and mean power taken over
-    the last stroke cycle all three measured, and that cycle's start (s).
+    """The runs' results (the meshes' {1: ..., 2: ..., 3: ...}, or any runs') with mean Fx and
+    mean power taken over the last stroke cycle all of them measured, and that cycle's start (s).
 
     Each run stops when its own cycle means repeat to within the periodic tolerance, so one
     mesh may stop a cycle later than another and its last cycle differ from theirs by that
@@ -272,15 +272,9 @@ def time_step_check(base: dict, half: dict) -> dict:
     the drag), so their last cycles can differ by that much on their own, as much as the step
     moves them; the same cycle of both leaves the step alone. Results without cycle means (an
     older study) compare their last cycles, as ``cycle_start_s`` None says."""
-    fx_b, fx_h = base["swimming_fx"], half["swimming_fx"]
-    p_b, p_h = base["swimming_power"], half["swimming_power"]
-    start = None
-    i, j = _last_common_cycle([base, half])
-    if i is not None:
-        cb, ch = base["cycle_means"], half["cycle_means"]
-        start = cb["start_s"][i]
-        fx_b, fx_h = cb["fx_N"][i], ch["fx_N"][j]
-        p_b, p_h = cb["power_W"][i], ch["power_W"][j]
+    runs, start = same_cycle({"base": base, "half": half})
+    fx_b, fx_h = runs["base"]["swimming_fx"], runs["half"]["swimming_fx"]
+    p_b, p_h = runs["base"]["swimming_power"], runs["half"]["swimming_power"]
     drag = abs(base["gliding_drag"]) or float("nan")
     return {
         "delta_t_s": [base["delta_t_s"], half["delta_t_s"]],
