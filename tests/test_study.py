@@ -184,7 +184,8 @@ class _Model:
         u = record["speed_m_s"]
         cost = {"gliding_drag_N": 500 + 2 * h**2, "swimming_mean_fx_N":
                 300 * (u**2 - 1.96) + 0.5 * h**2, "swimming_mean_power_W": 1000 * u + 5 * h**2,
-                "mass_kg": 2000.0, "periodic_change": {"reached": True}}
+                "mass_kg": 2000.0, "periodic_change": {"reached": True},
+                "regions": {"body": {"gliding_drag_N": 300 + h**2}}}
         summary = {"swimming_cost": cost, "steps": 10, "step_s": 0.5 * 1e5 / h**3 / 1e4,
                    "cells": record["mesh"]["cells"], "yplus": {}}
         C.write_json(case / SM.SUMMARY, summary)
@@ -223,6 +224,9 @@ def test_study_machinery_with_a_model_runner_stops_resumes_and_answers(tmp_path,
         assert figs[key]["convergence"] == "monotone"
         assert figs[key]["p"] == pytest.approx(2.0, rel=1e-6)
         assert figs[key]["extrapolated"] == pytest.approx(f0, abs=1e-6)
+    body = saved["meshes"]["regions"]["body"]     # read from each case's summary
+    assert body["p"] == pytest.approx(2.0, rel=1e-6)
+    assert body["extrapolated"] == pytest.approx(300.0, abs=1e-6)
     h2 = saved["cases"]["mesh-2/case"]["background_cell_m"]
     assert figs["swimming_fx"]["difference"]["2"] == pytest.approx(0.5 * h2**2 / 500, rel=1e-6)
     assert saved["time_step"]["swimming_power_change"] == 0.0

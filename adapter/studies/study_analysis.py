@@ -73,6 +73,8 @@ def case_result(case: Path) -> dict | None:
         "wall_s_per_cycle": step * period / dt if step else None,
         "yplus_median": yp.get("median"),
         "yplus_area_le_300": yp.get("worst_area_le_300"),
+        "region_gliding_drag": {name: r.get("gliding_drag_N")
+                                for name, r in (cost.get("regions") or {}).items()},
     }
 
 
@@ -198,6 +200,26 @@ def self_propelled(points: list, mass: float | None, fx_band: float | None = Non
     return out
 
 
+def region_study(meshes: dict) -> dict:
+    """Each region's gliding drag (body, flippers, flukes: the loads' regions) on the three
+    meshes with its convergence, observed order and GCI as the whole whale's
+    (:func:`bounded_order`): which part of the whale the mesh's error sits in. {} when a mesh
+    has no regions (a body without the whale's landmarks, an older study)."""
+    h = {k: meshes[k]["background_cell_m"] for k in (1, 2, 3)}
+    r21, r32 = h[2] / h[1], h[3] / h[2]
+    drags = [meshes[k].get("region_gliding_drag") or {} for k in (1, 2, 3)]
+    out = {}
+    for name in drags[0]:
+        f = [d[name] for d in drags if d.get(name) is not None]
+        if len(f) == 3 and f[0]:
+            f1, f2, f3 = (float(v) for v in f)
+            g = bounded_order(G.gci(f1, f2, f3, r21, r32))
+            if g.get("gci_fine_abs") is not None:
+                g["gci_fine_of_value"] = g["gci_fine_abs"] / abs(f1)
+            out[name] = g
+    return out
+
+
 def _last_common_cycle(results: list) -> list:
     """For each result, the index of the last stroke cycle that every result measured (matched
     by its start time), or None for all when one has no cycle means or there is none."""
@@ -234,9 +256,9 @@ def same_cycle(meshes: dict) -> tuple[dict, float | None]:
 def meshes_compared(meshes: dict) -> dict:
     """study.json's "meshes": :func:`mesh_study` over the last cycle every mesh measured
     (:func:`same_cycle`), with that cycle's start (``cycle_start_s``, None for an older study
-    whose results have no cycle means)."""
+    whose results have no cycle means), and the regions' gliding drag (:func:`region_study`)."""
     matched, start = same_cycle(meshes)
-    return {**mesh_study(matched), "cycle_start_s": start}
+    return {**mesh_study(matched), "cycle_start_s": start, "regions": region_study(meshes)}
 
 
 def analyse(out: Path, scene, cases: list, ratio: float, failed: dict | None = None) -> dict:

@@ -80,6 +80,27 @@ def plot_accuracy_vs_cost(study: dict, path: Path) -> None:
     plt.close(fig)
 
 
+def _region_lines(regions: dict) -> list:
+    """The regions' gliding drag on meshes 1 / 2 / 3, each with its convergence and GCI."""
+    lines = ["  gliding drag by region (N), meshes 1 / 2 / 3:"]
+    for name, g in regions.items():
+        if g.get("gci_fine_of_value") is not None:
+            note = (f"p {g['p']:.2f}  GCI(mesh 1) {g['gci_fine_of_value']:.2%} "
+                    f"({g['gci_fine_abs']:.1f} N)")
+            if g.get("order_capped"):
+                note += f"; observed order {g['p_observed']:.2f}, above the formal {g['p']:g}"
+        elif g["convergence"] == "too slow":
+            note = f"observed order {g['p_observed']:.2f}: too slow to extrapolate, no GCI"
+        elif g["convergence"] == "divergent":
+            note = "the differences grow with the cells: no GCI"
+        else:
+            note = "no GCI"
+        f1, f2, f3 = g["values"]
+        lines.append(f"    {name:<10}{f1:>8.1f} /{f2:>7.1f} /{f3:>7.1f}  "
+                     f"{g['convergence']:<11} {note}")
+    return lines
+
+
 def format_study(study: dict) -> str:
     """The short table printed at the end."""
     lines = []
@@ -118,6 +139,8 @@ def format_study(study: dict) -> str:
                 note += f"; observed order {g['p_observed']:.2f}: too slow to extrapolate"
             lines.append(f"  {g['label']:<22} {g['convergence']:<11} p {p:>5}  extrapolated "
                          f"{ext:>9}  GCI(mesh 1) {gf}{note}")
+    if ms and ms.get("regions"):
+        lines += _region_lines(ms["regions"])
     ts = study.get("time_step")
     if ts:
         lines.append(f"time step {ts['delta_t_s'][0]:.4g} -> {ts['delta_t_s'][1]:.4g} s: drag "
@@ -162,7 +185,8 @@ def write_study_report(out, study: dict, chart: Path | None = None) -> Path:
     sections = [
         Section("The flow study", warning="; ".join(problems),
                 text=("Three meshes refined by one ratio (Richardson extrapolation and the GCI "
-                      "of gliding drag, mean swimming Fx and mean power), mesh 2 with the flow "
+                      "of gliding drag, mean swimming Fx and mean power, and of each region's "
+                      "gliding drag), mesh 2 with the flow "
                       "step halved, and mesh 2 at other speeds (the self-propelled speed). A "
                       "negative mean Fx is net thrust."),
                 pre=format_study(study)),
