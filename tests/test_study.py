@@ -224,7 +224,7 @@ def test_study_machinery_with_a_model_runner_stops_resumes_and_answers(tmp_path,
         assert figs[key]["convergence"] == "monotone"
         assert figs[key]["p"] == pytest.approx(2.0, rel=1e-6)
         assert figs[key]["extrapolated"] == pytest.approx(f0, abs=1e-6)
-    body = saved["meshes"]["regions"]["body"]     # read from each case's summary
+    body = saved["meshes"]["regions"]["gliding_drag"]["body"]   # from each case's summary
     assert body["p"] == pytest.approx(2.0, rel=1e-6)
     assert body["extrapolated"] == pytest.approx(300.0, abs=1e-6)
     h2 = saved["cases"]["mesh-2/case"]["background_cell_m"]

@@ -16,6 +16,7 @@ import numpy as np
 
 from adapter.errors import AdapterError
 from adapter.foam.case import Case
+from adapter.foam.loads import read_loads, window_mean
 from adapter.foam.summary import SUMMARY
 from adapter.studies import gci as G
 
@@ -75,7 +76,21 @@ def case_result(case: Path) -> dict | None:
         "yplus_area_le_300": yp.get("worst_area_le_300"),
         "region_gliding_drag": {name: r.get("gliding_drag_N")
                                 for name, r in (cost.get("regions") or {}).items()},
+        "region_cycle_fx": region_cycle_fx(case, cost, period),
     }
+
+
+def region_cycle_fx(case: Path, cost: dict, period: float) -> dict:
+    """Each region's mean Fx over each stroke cycle of ``cost["cycle_means"]`` (the swimming
+    run's loads, as the whole whale's cycle means are taken): {region: [one per cycle]}; {}
+    without regions or cycle means."""
+    starts = (cost.get("cycle_means") or {}).get("start_s") or []
+    names = list(cost.get("regions") or {})
+    loads = read_loads(case) if starts and names else {}
+    if not all(f"whale.{name}:Fx" in loads for name in names):
+        return {}
+    return {name: [window_mean(loads["Time"], loads[f"whale.{name}:Fx"], a, a + period)
+                   for a in starts] for name in names}
 
 
 def _scale(name: str, values: dict) -> float:
@@ -201,22 +216,34 @@ def self_propelled(points: list, mass: float | None, fx_band: float | None = Non
 
 
 def region_study(meshes: dict) -> dict:
-    """Each region's gliding drag (body, flippers, flukes: the loads' regions) on the three
-    meshes with its convergence, observed order and GCI as the whole whale's
-    (:func:`bounded_order`): which part of the whale the mesh's error sits in. {} when a mesh
-    has no regions (a body without the whale's landmarks, an older study)."""
+    """Each region's gliding drag and mean swimming Fx (body, flippers, flukes: the loads'
+    regions) on the three meshes, with convergence, observed order and GCI as the whole
+    whale's (:func:`bounded_order`): which part of the whale the mesh's error sits in. Mean Fx
+    over the last stroke cycle all three measured, as the totals' (:func:`same_cycle`).
+    ``{"gliding_drag": {region: ...}, "swimming_fx": {...}}``; a figure is left out when a mesh
+    lacks it (a body without the whale's landmarks, an older study)."""
     h = {k: meshes[k]["background_cell_m"] for k in (1, 2, 3)}
     r21, r32 = h[2] / h[1], h[3] / h[2]
-    drags = [meshes[k].get("region_gliding_drag") or {} for k in (1, 2, 3)]
-    out = {}
-    for name in drags[0]:
-        f = [d[name] for d in drags if d.get(name) is not None]
-        if len(f) == 3 and f[0]:
+    ks = (1, 2, 3)
+    idx = _last_common_cycle([meshes[k] for k in ks])
+    values = {"gliding_drag": [meshes[k].get("region_gliding_drag") or {} for k in ks],
+              "swimming_fx": [{name: v[i] for name, v in
+                               (meshes[k].get("region_cycle_fx") or {}).items()}
+                              if i is not None else {} for k, i in zip(ks, idx, strict=True)]}
+    out: dict = {}
+    for figure, per_mesh in values.items():
+        for name in per_mesh[0]:
+            f = [d[name] for d in per_mesh if d.get(name) is not None]
+            if len(f) < 3 or not f[0]:
+                continue
             f1, f2, f3 = (float(v) for v in f)
             g = bounded_order(G.gci(f1, f2, f3, r21, r32))
-            if g.get("gci_fine_abs") is not None:
+            if g["convergence"] == "oscillatory":
+                # as the totals': half the range (Stern et al. 2001), not Celik's p from |R|
+                g["band_abs"] = 0.5 * (max(f) - min(f))
+            elif g.get("gci_fine_abs") is not None:
                 g["gci_fine_of_value"] = g["gci_fine_abs"] / abs(f1)
-            out[name] = g
+            out.setdefault(figure, {})[name] = g
     return out
 
 

@@ -80,24 +80,35 @@ def plot_accuracy_vs_cost(study: dict, path: Path) -> None:
     plt.close(fig)
 
 
+#: the regions' figures in the study's table: (key in study.json's meshes.regions, heading)
+REGION_FIGURES = (("gliding_drag", "gliding drag by region (N)"),
+                  ("swimming_fx", "mean swimming Fx by region (N), the same cycle"))
+
+
 def _region_lines(regions: dict) -> list:
-    """The regions' gliding drag on meshes 1 / 2 / 3, each with its convergence and GCI."""
-    lines = ["  gliding drag by region (N), meshes 1 / 2 / 3:"]
-    for name, g in regions.items():
-        if g.get("gci_fine_of_value") is not None:
-            note = (f"p {g['p']:.2f}  GCI(mesh 1) {g['gci_fine_of_value']:.2%} "
-                    f"({g['gci_fine_abs']:.1f} N)")
-            if g.get("order_capped"):
-                note += f"; observed order {g['p_observed']:.2f}, above the formal {g['p']:g}"
-        elif g["convergence"] == "too slow":
-            note = f"observed order {g['p_observed']:.2f}: too slow to extrapolate, no GCI"
-        elif g["convergence"] == "divergent":
-            note = "the differences grow with the cells: no GCI"
-        else:
-            note = "no GCI"
-        f1, f2, f3 = g["values"]
-        lines.append(f"    {name:<10}{f1:>8.1f} /{f2:>7.1f} /{f3:>7.1f}  "
-                     f"{g['convergence']:<11} {note}")
+    """The regions' figures on meshes 1 / 2 / 3, each with its convergence and GCI."""
+    lines = []
+    for figure, heading in REGION_FIGURES:
+        if regions.get(figure):
+            lines.append(f"  {heading}, meshes 1 / 2 / 3:")
+        for name, g in (regions.get(figure) or {}).items():
+            if g.get("gci_fine_of_value") is not None:
+                note = (f"p {g['p']:.2f}  GCI(mesh 1) {g['gci_fine_of_value']:.2%} "
+                        f"({g['gci_fine_abs']:.1f} N)")
+                if g.get("order_capped"):
+                    note += (f"; observed order {g['p_observed']:.2f}, above the formal "
+                             f"{g['p']:g}")
+            elif g.get("band_abs") is not None:
+                note = f"band +-{g['band_abs']:.1f} N (half the range)"
+            elif g["convergence"] == "too slow":
+                note = f"observed order {g['p_observed']:.2f}: too slow to extrapolate, no GCI"
+            elif g["convergence"] == "divergent":
+                note = "the differences grow with the cells: no GCI"
+            else:
+                note = "no GCI"
+            f1, f2, f3 = g["values"]
+            lines.append(f"    {name:<10}{f1:>8.1f} /{f2:>7.1f} /{f3:>7.1f}  "
+                         f"{g['convergence']:<11} {note}")
     return lines
 
 
@@ -186,7 +197,7 @@ def write_study_report(out, study: dict, chart: Path | None = None) -> Path:
         Section("The flow study", warning="; ".join(problems),
                 text=("Three meshes refined by one ratio (Richardson extrapolation and the GCI "
                       "of gliding drag, mean swimming Fx and mean power, and of each region's "
-                      "gliding drag), mesh 2 with the flow "
+                      "gliding drag and mean Fx), mesh 2 with the flow "
                       "step halved, and mesh 2 at other speeds (the self-propelled speed). A "
                       "negative mean Fx is net thrust."),
                 pre=format_study(study)),
