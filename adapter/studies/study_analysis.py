@@ -283,7 +283,8 @@ def same_cycle(meshes: dict) -> tuple[dict, float | None]:
 def meshes_compared(meshes: dict) -> dict:
     """study.json's "meshes": :func:`mesh_study` over the last cycle every mesh measured
     (:func:`same_cycle`), with that cycle's start (``cycle_start_s``, None for an older study
-    whose results have no cycle means), and the regions' gliding drag (:func:`region_study`)."""
+    whose results have no cycle means), and the regions' gliding drag and mean Fx
+    (:func:`region_study`)."""
     matched, start = same_cycle(meshes)
     return {**mesh_study(matched), "cycle_start_s": start, "regions": region_study(meshes)}
 
