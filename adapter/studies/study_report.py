@@ -85,6 +85,17 @@ REGION_FIGURES = (("gliding_drag", "gliding drag by region (N)"),
                   ("swimming_fx", "mean swimming Fx by region (N), the same cycle"))
 
 
+def _order_note(g: dict) -> str:
+    """What the observed order says of figure ``g``: "; observed order ..., above the formal
+    ..." when held to the formal order, "; observed order ...: too slow to extrapolate" when
+    below the slowest, else ""."""
+    if g.get("order_capped"):
+        return f"; observed order {g['p_observed']:.2f}, above the formal {g['p']:g}"
+    if g["convergence"] == "too slow":
+        return f"; observed order {g['p_observed']:.2f}: too slow to extrapolate"
+    return ""
+
+
 def _region_lines(regions: dict) -> list:
     """The regions' figures on meshes 1 / 2 / 3, each with its convergence and GCI."""
     lines = []
@@ -94,14 +105,11 @@ def _region_lines(regions: dict) -> list:
         for name, g in (regions.get(figure) or {}).items():
             if g.get("gci_fine_of_value") is not None:
                 note = (f"p {g['p']:.2f}  GCI(mesh 1) {g['gci_fine_of_value']:.2%} "
-                        f"({g['gci_fine_abs']:.1f} N)")
-                if g.get("order_capped"):
-                    note += (f"; observed order {g['p_observed']:.2f}, above the formal "
-                             f"{g['p']:g}")
+                        f"({g['gci_fine_abs']:.1f} N){_order_note(g)}")
             elif g.get("band_abs") is not None:
                 note = f"band +-{g['band_abs']:.1f} N (half the range)"
             elif g["convergence"] == "too slow":
-                note = f"observed order {g['p_observed']:.2f}: too slow to extrapolate, no GCI"
+                note = _order_note(g)[2:] + ", no GCI"
             elif g["convergence"] == "divergent":
                 note = "the differences grow with the cells: no GCI"
             else:
@@ -144,10 +152,7 @@ def format_study(study: dict) -> str:
             if g["convergence"] == "oscillatory" and g.get("gci_fine") is not None:
                 # Celik et al.'s procedure takes p from |R| for an oscillating sequence
                 note += f"; Celik's GCI from |R| {g['gci_fine']:.2%} (p {g['p']:.2f})"
-            if g.get("order_capped"):
-                note += f"; observed order {g['p_observed']:.2f}, above the formal {g['p']:g}"
-            elif g["convergence"] == "too slow":
-                note += f"; observed order {g['p_observed']:.2f}: too slow to extrapolate"
+            note += _order_note(g)
             lines.append(f"  {g['label']:<22} {g['convergence']:<11} p {p:>5}  extrapolated "
                          f"{ext:>9}  GCI(mesh 1) {gf}{note}")
     if ms and ms.get("regions"):
