@@ -11,13 +11,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tomllib
 import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from adapter.errors import SceneError
-from adapter.scenevalues import convert, describe
+from adapter.scenevalues import convert, describe, read_toml
 
 PRESETS = ("default", "smoke", "fine")
 DATA_DIR = Path(__file__).parent / "data"
@@ -213,6 +212,9 @@ class Case:
     layers: int = field(default=3, metadata={"check": _within(0, 20)})
     first_layer_m: float = field(default=0.007, metadata={"check": _positive})
     layer_expansion: float = field(default=1.5, metadata={"check": _within(1, 3)})
+    #: the flippers' and flukes' own layers (0: the body's) and first layer (m), docs/case.md
+    fin_layers: int = field(default=0, metadata={"check": _within(0, 20)})
+    fin_first_layer_m: float = field(default=0.002, metadata={"check": _positive})
     #: how the mesh follows the whale: "blended" (whaleBlendedDisplacement, faded out between
     #: motion_inner and motion_outer body lengths) or "laplacian" (displacementLaplacian)
     mesh_motion: str = field(default="blended", metadata={"choices": ("blended", "laplacian")})
@@ -344,13 +346,6 @@ def _check_relations(obj, path: str) -> None:
                              f"min is {obj.refinement[0]}): give a level above it, or 0 for none")
 
 
-def _read_toml(text: str, where: str) -> dict:
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{where}: not valid TOML: {exc}") from None
-
-
 def default_scene() -> Scene:
     """The built-in default scene (the paper's setting)."""
     return load_scene(preset="default")
@@ -372,7 +367,7 @@ def load_scene(path: str | Path | None = None, preset: str | None = None) -> Sce
         if not path.is_file():
             raise SceneError(f"scene file {path} does not exist; give an existing TOML file")
         where, base_dir = str(path), str(path.resolve().parent)
-        user = _read_toml(path.read_text(), where)
+        user = read_toml(path.read_text(), where)
         file_preset = user.pop("preset", None)
         if file_preset is not None:
             if preset is not None and preset != file_preset:
@@ -385,7 +380,7 @@ def load_scene(path: str | Path | None = None, preset: str | None = None) -> Sce
     if preset != "default":
         layers.append((preset, (data_dir / f"{preset}.toml").read_text()))
     for name, text in layers:
-        table = _read_toml(text, f"built-in scene {name}")
+        table = read_toml(text, f"built-in scene {name}")
         scene = _with_table(scene, table, f"built-in scene {name}")
     scene = dataclasses.replace(scene, name=preset)
     if user:

@@ -1,9 +1,10 @@
 """The scene's value checks: one TOML value against a field's type and metadata
-(:mod:`adapter.scene` builds the tree with them)."""
+(:mod:`adapter.scene` builds the tree with them), and a scene file's TOML read."""
 
 from __future__ import annotations
 
 import math
+import tomllib
 import typing
 
 from adapter.errors import SceneError
@@ -61,3 +62,11 @@ def point(value, path: str):
         raise SceneError(f"{path}: expected a point [x, y, z] of three finite numbers, "
                          f"got {value!r}")
     return tuple(float(v) for v in value)
+
+
+def read_toml(text: str, where: str) -> dict:
+    """A TOML file's text as a table; ``where`` names it in the error of a bad file."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{where}: not valid TOML: {exc}") from None
