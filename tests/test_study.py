@@ -88,6 +88,9 @@ def test_three_meshes_scale_every_cell_by_the_ratio(tmp_path, smoke_scene, smoke
                                                         * r ** (k - own))
         first = 0.05 * r ** (k - own) if layers == "similar" else 0.05
         assert sc.case.first_layer_m == pytest.approx(first, rel=1e-12)
+        # the fins' own first layer (the default's 2 mm) follows the body's rule
+        fin = 0.002 * r ** (k - own) if layers == "similar" else 0.002
+        assert sc.case.fin_first_layer_m == pytest.approx(fin, rel=1e-12)
         if layers == "similar":
             assert (sc.case.layers, sc.case.layer_expansion) == (3, 1.5)
         assert S.stack_thickness(sc.case.first_layer_m, sc.case.layers,

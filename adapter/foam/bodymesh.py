@@ -107,7 +107,9 @@ def mesh_levels(case) -> dict:
                         ) from None
     layers = 0
     if str(d.get("addLayers", "no")).lower() in ("yes", "on", "true", "1"):
-        entry = d["addLayersControls"]["layers"].get("whale", {})
+        # the body's entry when the fins have layers of their own (adapter.foam.finpatches)
+        asked = d["addLayersControls"]["layers"]
+        entry = asked.get("whale") or asked.get("whale_body") or {}
         layers = int(entry.get("nSurfaceLayers", 0))
     return {"level": level, "layers": layers}
 

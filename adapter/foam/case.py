@@ -26,7 +26,12 @@ from adapter.coupling.protocol import SOCKET_NAME
 from adapter.errors import CaseError, SceneError
 from adapter.foam import symmetry
 from adapter.foam.casescene import write_case_scene
-from adapter.foam.dictionaries import PLUGIN_LIB, choose_decomposition, write_dictionaries
+from adapter.foam.dictionaries import (
+    PLUGIN_LIB,
+    REGIONS_STL,
+    choose_decomposition,
+    write_dictionaries,
+)
 from adapter.foam.loads import body_dimensions
 from adapter.foam.parallel import resolve_ranks
 from adapter.foam.parameters import CaseParameters, case_parameters
@@ -37,8 +42,6 @@ TEMPLATE_DIR = resources.TEMPLATE_DIR
 CASE_RECORD = jsonfiles.CASE_RECORD
 #: the figures of the case's run (:mod:`adapter.foam.summary`)
 CASE_SUMMARY = jsonfiles.CASE_SUMMARY
-#: the regions surface the loads function object reads (constant/triSurface/)
-REGIONS_STL = "whale_regions.stl"
 #: the flippers' triangles alone (constant/triSurface/), snappyHexMesh's refinement region
 FLIPPERS_STL = "flippers.stl"
 FLUKE_BLADE_STL = "flukeBlade.stl"
@@ -85,8 +88,9 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     check_length(scene, surface)
     given = scene
     if not surface.is_whale:
-        # a body without the whale's landmarks has no flippers or flukes to refine at
-        scene = scene.replace(case={"flipper_level": 0, "fluke_level": 0})
+        # a body without the whale's landmarks has no flippers or flukes to refine at (or to
+        # give layers of their own)
+        scene = scene.replace(case={"flipper_level": 0, "fluke_level": 0, "fin_layers": 0})
     fins = _flippers_to_refine(scene, surface)
     if fins is None:
         scene = scene.replace(case={"flipper_level": 0})

@@ -18,6 +18,10 @@ from adapter.coupling.protocol import CONNECT_TIMEOUT_S, REPLY_TIMEOUT_S
 from adapter.errors import CaseError
 from adapter.foam.parameters import CaseParameters
 
+#: the whale's triangles as three solids, body, flippers, flukes (constant/triSurface/): the
+#: loads' regions, and the surface meshed when the fins have layers of their own
+REGIONS_STL = "whale_regions.stl"
+
 #: the boundary condition library built by scripts/build_plugin.sh (resources.build_dir())
 PLUGIN_LIB = resources.PLUGIN_LIB
 #: the decompositions ``case.decomposition`` names (else it names a decomposeParDict file)
@@ -94,6 +98,15 @@ def _write_meshing(case: Path, c, p: CaseParameters) -> None:
     d["addLayers"] = c.layers > 0
     lc = d["addLayersControls"]
     lc["layers"] = {"whale": {"nSurfaceLayers": c.layers}} if c.layers > 0 else {}
+    if c.layers > 0 and c.fin_layers > 0:
+        # the fins' own layers: a patch a region (whale_regions.stl's solids), merged back into
+        # one whale patch after snappyHexMesh (adapter.foam.finpatches)
+        d["geometry"][REGIONS_STL] = d["geometry"]["whale.stl"]
+        del d["geometry"]["whale.stl"]
+        fin = {"nSurfaceLayers": c.fin_layers, "firstLayerThickness": c.fin_first_layer_m,
+               "minThickness": c.fin_first_layer_m / 3}
+        lc["layers"] = {"whale_body": {"nSurfaceLayers": c.layers}, "whale_flippers": fin,
+                        "whale_flukes": fin}
     lc["relativeSizes"] = False
     lc["firstLayerThickness"] = c.first_layer_m
     lc["expansionRatio"] = c.layer_expansion

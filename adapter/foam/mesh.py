@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from adapter.errors import AdapterError, MeshError
-from adapter.foam import symmetry
+from adapter.foam import finpatches, symmetry
 from adapter.foam.bodymesh import body_check, refuse_if_bad
 from adapter.foam.case import Case, parallel_settings
 from adapter.foam.dictionaries import set_decomposition
@@ -16,7 +16,7 @@ from adapter.foam.folders import processor_dirs, restore_zero
 from adapter.foam.logs import parse_check_mesh
 from adapter.foam.parallel import parallel_command
 from adapter.foam.tools import check_foam, run_utility
-from adapter.foam.yplus import layer_coverage, parse_layer_report
+from adapter.foam.yplus import extruded_faces, layer_coverage, parse_layer_report
 
 
 def mesh_case(case_dir, *, ranks: int | None = None, parallel: bool | None = None,
@@ -48,8 +48,12 @@ def mesh_case(case_dir, *, ranks: int | None = None, parallel: bool | None = Non
         snappy_on_ranks(case, on_ranks, settings["launcher"], settings["decomposition"])
     else:
         run_utility(case, ["snappyHexMesh", "-overwrite"])
+    # the fins' own layers: the whale meshed as a patch a region, merged back into one
+    parts = finpatches.whale_parts(case)
     # the layers' record from the half's snappyHexMesh fields, before a mirror doubles the mesh
-    layers = layer_record(case)
+    layers = layer_record(case, parts or ("whale",))
+    if parts:
+        finpatches.merge_whale_patches(case, parts)
     if record.get(symmetry.MIRROR_KEY):
         symmetry.mirror_half_mesh(case)
     log = run_utility(case, ["checkMesh"])
@@ -105,28 +109,52 @@ def snappy_on_ranks(case: Path, ranks: int, launcher: str = "",
         shutil.rmtree(p)
 
 
-def layer_record(case_dir) -> dict:
+def layer_record(case_dir, patches: tuple = ("whale",)) -> dict:
     """The whale's prism layers after snappyHexMesh: ``{"layers": {...}}`` with the log's table
     (``faces``, ``faces_with_layers``, ``face_coverage``, ``mean_layers``, ``thickness_m``,
     ``thickness_pct``) and the area-weighted coverage from the ``nSurfaceLayers`` field
-    (``area_with_layers``, ``area_full_thickness``); empty when the case has no layers."""
+    (``area_with_layers``, ``area_full_thickness``) over the whale's ``patches``; meshed as a
+    patch a region (:mod:`~adapter.foam.finpatches`), the table's rows are summed over them
+    (means weighted by faces) and each region's is kept under ``regions``, its area-weighted
+    coverage with it. Empty when the case has no layers."""
     case = Path(case_dir)
     log = case / "log.snappyHexMesh"
-    report = parse_layer_report(log.read_text(errors="replace")).get("whale") \
-        if log.is_file() else None
-    if not report:
+    text = log.read_text(errors="replace") if log.is_file() else ""
+    rows = parse_layer_report(text)
+    if not all(p in rows for p in patches):
         return {}
+    report = joined_rows([rows[p] for p in patches], extruded_faces(text))
     try:
-        cov = layer_coverage(case, "whale")
+        cov = layer_coverage(case, patches)
     except AdapterError:
         cov = {}
     for key in ("area_with_layers", "area_full_thickness"):
         if key in cov:
             report[key] = round(cov[key], 4)
-    for key in ("face_coverage",):
-        if key in report:
-            report[key] = round(report[key], 4)
+    if "face_coverage" in report:
+        report["face_coverage"] = round(report["face_coverage"], 4)
+    if len(patches) > 1:
+        report["regions"] = {p.removeprefix("whale_"): {**rows[p], **{
+            k: round(v, 4) for k, v in cov.get("patches", {}).get(p, {}).items()}}
+            for p in patches}
     return {"layers": report}
+
+
+def joined_rows(rows: list, extruded: tuple | None) -> dict:
+    """snappyHexMesh's layer rows of the whale's patches as one: faces summed, the layers and
+    thicknesses averaged by faces; ``faces_with_layers`` and ``face_coverage`` from its last
+    ``Extruding N out of M faces`` (``extruded``: (N, M); it counts every patch with layers,
+    the whale's alone)."""
+    faces = sum(r["faces"] for r in rows)
+    out: dict = {"faces": faces}
+    for key in ("mean_layers", "thickness_m", "thickness_pct"):
+        value = sum(r[key] * r["faces"] for r in rows) / faces if faces else 0.0
+        out[key] = value if len(rows) > 1 else rows[0][key]
+    if extruded is not None:
+        n, m = extruded
+        out["faces_with_layers"] = n
+        out["face_coverage"] = n / m if m else 0.0
+    return out
 
 
 def no_patch_hint(record: dict) -> str:

@@ -181,22 +181,29 @@ def parse_layer_report(text: str) -> dict:
         name, faces, layers, thick, pct = line.split()
         out[name] = {"faces": int(faces), "mean_layers": float(layers),
                      "thickness_m": float(thick), "thickness_pct": float(pct)}
-    ext = _EXTRUDE_RE.findall(text)
+    ext = extruded_faces(text)
     if ext and len(out) == 1:
-        n, m = (int(v) for v in ext[-1])
+        n, m = ext
         rep = next(iter(out.values()))
         rep["faces_with_layers"] = n
         rep["face_coverage"] = n / m if m else 0.0
     return out
 
 
-def layer_coverage(case, patch: str = "whale") -> dict:
+def extruded_faces(text: str) -> tuple | None:
+    """(N, M) of snappyHexMesh's last ``Extruding N out of M faces`` line, else None."""
+    ext = _EXTRUDE_RE.findall(text)
+    return (int(ext[-1][0]), int(ext[-1][1])) if ext else None
+
+
+def layer_coverage(case, patch: str | tuple = "whale") -> dict:
     """Area-weighted layer coverage of ``patch`` from snappyHexMesh's ``nSurfaceLayers`` field
     (``writeFlags (layerFields)`` in snappyHexMeshDict; the field is in the newest folder that
     holds it, ``0`` with ``-overwrite``). Returns ``area_with_layers`` (fraction of the area
     whose faces got at least one layer), ``faces_with_layers``, ``faces``, ``mean_layers``
     (area-weighted) and ``area_full_thickness`` (fraction of the area whose ``thicknessFraction``
-    is at least 0.99 when that field is there)."""
+    is at least 0.99 when that field is there). ``patch``: one patch, or several taken as
+    one, each one's ``area_with_layers`` (and ``area_full_thickness``) then under ``patches``."""
     case = Path(case)
     src = None
     for _, d in reversed(time_dirs(case)):
@@ -205,8 +212,28 @@ def layer_coverage(case, patch: str = "whale") -> dict:
             break
     if src is None:
         raise CaseError(f"{case}: no nSurfaceLayers field (snappyHexMesh writeFlags)")
-    areas = patch_face_areas(case, patch, None)
-    n = read_patch_field(src / "nSurfaceLayers", patch, len(areas))
+    patches = (patch,) if isinstance(patch, str) else tuple(patch)
+    frac_file = src / "thicknessFraction"
+    with_frac = frac_file.is_file() or frac_file.with_name("thicknessFraction.gz").is_file()
+    areas, n, frac, each = [], [], [], {}
+    for name in patches:
+        a = patch_face_areas(case, name, None)
+        areas.append(a)
+        n.append(read_patch_field(src / "nSurfaceLayers", name, len(a)))
+        if with_frac:
+            frac.append(read_patch_field(frac_file, name, len(a)))
+        each[name] = _coverage(a, n[-1], frac[-1] if with_frac else None)
+    out = _coverage(np.concatenate(areas), np.concatenate(n),
+                    np.concatenate(frac) if with_frac else None)
+    if len(patches) > 1:
+        out["patches"] = {name: {k: v for k, v in c.items() if k.startswith("area_")}
+                          for name, c in each.items()}
+    return out
+
+
+def _coverage(areas: np.ndarray, n: np.ndarray, frac: np.ndarray | None) -> dict:
+    """:func:`layer_coverage`'s figures of faces of ``areas`` with ``n`` layers, ``frac`` of
+    the thickness asked for (None: not known)."""
     total = areas.sum()
     out = {
         "faces": int(areas.size),
@@ -214,8 +241,6 @@ def layer_coverage(case, patch: str = "whale") -> dict:
         "area_with_layers": float(areas[n > 0.5].sum() / total),
         "mean_layers": float((n * areas).sum() / total),
     }
-    frac_file = src / "thicknessFraction"
-    if frac_file.is_file() or frac_file.with_name("thicknessFraction.gz").is_file():
-        frac = read_patch_field(frac_file, patch, len(areas))
+    if frac is not None:
         out["area_full_thickness"] = float(areas[frac >= 0.99].sum() / total)
     return out

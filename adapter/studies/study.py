@@ -110,7 +110,8 @@ def mesh_scene(scene, k: int, ratio: float, finest: str = "scene", layers: str =
     """The scene of mesh ``k`` (1 finest, 3 coarsest): every cell ``ratio`` ** (k - 1) times the
     scene's (``finest = "scene"``) or ``ratio`` ** (k - 2) (``"refined"``: mesh 2 is the
     scene's) in the background cell and, by ``layers`` (:data:`LAYER_RULES`), the prism
-    stack; the snappy levels kept."""
+    stack (the body's; with ``similar`` the fins' own first layer too); the snappy levels
+    kept."""
     if finest not in FINEST:
         raise AdapterError(f"finest = {finest!r}: choose one of {', '.join(FINEST)}")
     if layers not in LAYER_RULES:
@@ -124,7 +125,9 @@ def mesh_scene(scene, k: int, ratio: float, finest: str = "scene", layers: str =
         changes["background_cell"] = c.background_cell * scale
     if layers == "similar":
         changes["first_layer_m"] = c.first_layer_m * scale
+        changes["fin_first_layer_m"] = c.fin_first_layer_m * scale
     else:
+        # the fins' own first layer kept too, their stack growing by the body's expansion
         n, e = layer_rule(c.first_layer_m, c.layers, c.layer_expansion, scale)
         changes.update(layers=n, layer_expansion=e)
     return scene.replace(case=changes)
