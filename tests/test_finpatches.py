@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from adapter.errors import FoamFileError
+from adapter.foam import bodymesh as B
 from adapter.foam import case as C
 from adapter.foam import finpatches as F
 from adapter.foam import foamascii as FA
@@ -88,6 +89,22 @@ def test_joined_rows_sum_faces_and_weight_means_by_faces():
     assert out["thickness_pct"] == pytest.approx(67.5)
     assert out["faces_with_layers"] == 380
     assert out["face_coverage"] == pytest.approx(0.95)
+
+
+def test_fin_layers_mesh_the_regions_surface_and_the_body_check_reads_the_body(
+        tmp_path, smoke_scene, smoke_surface):
+    """With the fins' own layers snappyHexMesh meshes whale_regions.stl (three solids) with a
+    layer entry a patch, and the body check still finds the body's layer count."""
+    scene = smoke_scene.replace(case={"layers": 3, "fin_layers": 2})
+    case = tmp_path / "case"
+    C.prepare_case(scene, case, surface=smoke_surface)
+    d = parsed_dict(case / "system" / "snappyHexMeshDict")
+    assert list(d["geometry"]).count("whale_regions.stl") == 1
+    assert "whale.stl" not in d["geometry"]
+    layers = d["addLayersControls"]["layers"]
+    assert sorted(layers) == sorted(F.PATCHES)
+    assert layers["whale_flukes"]["firstLayerThickness"] == pytest.approx(0.002)
+    assert B.mesh_levels(case)["layers"] == 3
 
 
 @pytest.mark.openfoam
