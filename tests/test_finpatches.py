@@ -108,18 +108,21 @@ def test_fin_layers_mesh_the_regions_surface_and_the_body_check_reads_the_body(
 
 
 @pytest.mark.openfoam
-def test_smoke_whale_with_fin_layers_is_one_patch(tmp_path, smoke_scene, smoke_surface):
-    """A smoke-sized whale whose fins get two thin layers of their own while the body gets one:
-    snappyHexMesh's three patches are one whale patch afterwards, the fins' layers are thinner
-    than the body's, and the coverage read from the merged layer field is the regions' own,
-    weighted by their areas."""
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_smoke_whale_with_fin_layers_is_one_patch(tmp_path, smoke_scene, smoke_surface, ranks):
+    """A smoke-sized whale whose fins get two thin layers of their own while the body gets one,
+    snappyHexMesh on one rank or two (the mesh and the layer fields reconstructed): its three
+    patches are one whale patch afterwards, the fins' layers are thinner than the body's, and
+    the coverage read from the merged layer field is the regions' own."""
     scene = smoke_scene.replace(case={"layers": 1, "first_layer_m": 0.25, "fin_layers": 2,
-                                      "fin_first_layer_m": 0.05})
+                                      "fin_first_layer_m": 0.05,
+                                      "parallel_meshing": ranks > 1})
     case = tmp_path / "case"
-    C.prepare_case(scene, case, surface=smoke_surface, static_whale=True)
+    C.prepare_case(scene, case, surface=smoke_surface, static_whale=True, ranks=ranks)
     asked = parsed_dict(case / "system" / "snappyHexMeshDict")["addLayersControls"]["layers"]
     assert asked["whale_flippers"]["nSurfaceLayers"] == 2
     info = M.mesh_case(case)
+    assert info["meshed_on_ranks"] == ranks
     boundary = FA.read_boundary(case / "constant" / "polyMesh" / "boundary")
     assert "whale" in boundary and not set(F.PATCHES) & set(boundary)
     layers = info["layers"]
