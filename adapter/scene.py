@@ -181,6 +181,9 @@ class Case:
     #: snappyHexMesh level near the flippers and the flukes' blade (0: none; docs/scene.md)
     flipper_level: int = field(default=5, metadata={"check": _within(0, 8)})
     fluke_level: int = field(default=5, metadata={"check": _within(0, 8)})
+    #: ... and at the forward tenth of their sections' chords (0: none; docs/case.md)
+    flipper_edge_level: int = field(default=0, metadata={"check": _within(0, 8)})
+    fluke_edge_level: int = field(default=0, metadata={"check": _within(0, 8)})
     fluke_clearance: float = field(default=12.0, metadata={"check": _non_negative})
     #: simulated stroke cycles; end time = cycles / frequency unless end_time_s > 0
     cycles: float = field(default=1.0, metadata={"check": _positive})
@@ -340,7 +343,8 @@ def _check_relations(obj, path: str) -> None:
     ref = obj.refinement if isinstance(obj, Case) else (0, 0)
     if len(ref) != 2 or not 0 <= ref[0] <= ref[1] <= 8:
         raise SceneError(f"{path}.refinement: expected [min, max] levels with 0 <= min <= max <= 8")
-    for key in ("flipper_level", "fluke_level") if isinstance(obj, Case) else ():
+    levels = ("flipper_level", "fluke_level", "flipper_edge_level", "fluke_edge_level")
+    for key in levels if isinstance(obj, Case) else ():
         if 0 < getattr(obj, key) <= obj.refinement[0]:
             raise SceneError(f"{path}.{key} = {getattr(obj, key)} refines nothing (refinement "
                              f"min is {obj.refinement[0]}): give a level above it, or 0 for none")

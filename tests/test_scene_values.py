@@ -146,6 +146,9 @@ def test_each_range_at_its_limits(tmp_path, key, ok, bad, allowed):
     ("[case]\nrefinement = [2, 4]\nfluke_level = 1\n",
      "case.fluke_level = 1 refines nothing (refinement min is 2): give a level above it, "
      "or 0 for none"),
+    ("[case]\nrefinement = [2, 4]\nfluke_edge_level = 2\n",
+     "case.fluke_edge_level = 2 refines nothing (refinement min is 2): give a level above it, "
+     "or 0 for none"),
 ])
 def test_the_relations_between_keys(tmp_path, text, message):
     _refused(tmp_path, text, message)

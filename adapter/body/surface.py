@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from adapter.body.leadingedge import leading_edge_mask
 from adapter.body.meshfile import write_region_stl, write_surface
 from adapter.body.polygons import triangulate, unique_edges
 from adapter.body.regions import BODY, FLIPPERS, FLUKES, REGIONS, flipper_triangles
@@ -114,8 +115,8 @@ class WhaleSurface:
         mine = np.where(regions == REGIONS.index(only), 0, -1)
         write_region_stl(path, self.points, self.triangles, mine, names=(only,))
 
-    def write_fluke_blade_stl(self, path: str | Path, clearance_m: float) -> None:
-        """An ASCII STL of the flukes' blade (one solid ``flukeBlade``): the flukes' triangles
+    def fluke_blade(self, clearance_m: float) -> np.ndarray:
+        """Which triangles are the flukes' blade: the flukes' triangles
         (:meth:`triangle_regions`) whose centroid lies more than ``clearance_m`` (m, along the
         body) behind the tail base, so that the hinge is left out."""
         centroid_x = self.points[self.triangles].mean(axis=1)[:, 0]
@@ -126,8 +127,23 @@ class WhaleSurface:
             raise GeometryError(f"no fluke triangle lies {clearance_m:.4g} m behind the tail "
                                 "base: give a smaller case.fluke_clearance, or "
                                 "case.fluke_level = 0 for no finer cells at the flukes")
-        write_region_stl(path, self.points, self.triangles, np.where(blade, 0, -1),
-                         names=("flukeBlade",))
+        return blade
+
+    def write_fluke_blade_stl(self, path: str | Path, clearance_m: float) -> None:
+        """An ASCII STL of the flukes' blade (:meth:`fluke_blade`; one solid ``flukeBlade``)."""
+        write_region_stl(path, self.points, self.triangles,
+                         np.where(self.fluke_blade(clearance_m), 0, -1), names=("flukeBlade",))
+
+    def write_leading_edge_stl(self, path: str | Path, fin: np.ndarray, name: str,
+                               strip_m: float) -> None:
+        """An ASCII STL (one solid ``name``) of the forward tenth of the chord of the fin whose
+        triangles ``fin`` marks (:func:`~adapter.body.leadingedge.leading_edge_mask`, sections
+        ``strip_m`` wide about the body's axis)."""
+        centroids = self.points[self.triangles].mean(axis=1)
+        edge = np.zeros(len(centroids), dtype=bool)
+        edge[fin] = leading_edge_mask(centroids[fin], float(self.origin[1]), strip_m)
+        write_region_stl(path, self.points, self.triangles, np.where(edge, 0, -1),
+                         names=(name,))
 
     def write(self, path: str | Path, point_data: dict | None = None) -> None:
         """Write the surface; the format follows the suffix (STL, OBJ, VTK, VTU, VTP, PLY ...).

@@ -22,11 +22,13 @@ from pathlib import Path
 import numpy as np
 
 from adapter import jsonfiles, resources
+from adapter.body.regions import FLIPPERS
 from adapter.coupling.protocol import SOCKET_NAME
 from adapter.errors import CaseError, SceneError
 from adapter.foam import symmetry
 from adapter.foam.casescene import write_case_scene
 from adapter.foam.dictionaries import (
+    EDGE_STLS,
     PLUGIN_LIB,
     REGIONS_STL,
     choose_decomposition,
@@ -34,7 +36,7 @@ from adapter.foam.dictionaries import (
 )
 from adapter.foam.loads import body_dimensions
 from adapter.foam.parallel import resolve_ranks
-from adapter.foam.parameters import CaseParameters, case_parameters
+from adapter.foam.parameters import CaseParameters, case_parameters, edge_cell_m
 
 #: the template case (foam_case/ of the repository, adapter/_foam_case in a wheel)
 TEMPLATE_DIR = resources.TEMPLATE_DIR
@@ -90,10 +92,11 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     if not surface.is_whale:
         # a body without the whale's landmarks has no flippers or flukes to refine at (or to
         # give layers of their own)
-        scene = scene.replace(case={"flipper_level": 0, "fluke_level": 0, "fin_layers": 0})
+        scene = scene.replace(case={"flipper_level": 0, "fluke_level": 0, "fin_layers": 0,
+                                    "flipper_edge_level": 0, "fluke_edge_level": 0})
     fins = _flippers_to_refine(scene, surface)
     if fins is None:
-        scene = scene.replace(case={"flipper_level": 0})
+        scene = scene.replace(case={"flipper_level": 0, "flipper_edge_level": 0})
     case.mkdir(parents=True, exist_ok=True)
     shutil.copytree(TEMPLATE_DIR, case, dirs_exist_ok=True)
     write_case_scene(given, case, f"scene file {Path(scene_file).resolve()}" if scene_file
@@ -108,6 +111,7 @@ def prepare_case(scene, case_dir, *, ranks: int | None = None, static_whale: boo
     if scene.case.fluke_level > 0:
         surface.write_fluke_blade_stl(stl.with_name(FLUKE_BLADE_STL),
                                       scene.case.fluke_clearance * params.fluke_cell_m)
+    _write_edges(stl, scene, surface, fins, params)
     decomposition = choose_decomposition(case, scene.case.decomposition, scene.base_dir)
     half = symmetry.use_half_domain(scene, surface)
     mirror = symmetry.use_mirror_mesh(scene, surface)
@@ -155,6 +159,22 @@ def _write_surfaces(case: Path, surface, fins) -> Path:
     if fins is not None:
         fins.write_regions_stl(stl.with_name(FLIPPERS_STL), only="flippers")
     return stl
+
+
+def _write_edges(stl: Path, scene, surface, fins, params: CaseParameters) -> None:
+    """The fins' leading edges (case.flipper_edge_level, fluke_edge_level): snappyHexMesh's
+    refinement regions ``flipperEdges.stl`` and ``flukeEdges.stl``, sections two such cells
+    wide; the flukes' is their blade's (case.fluke_clearance of the blade's cells, or of the
+    edge's without finer blade cells, behind the hinge)."""
+    c = scene.case
+    if c.flipper_edge_level > 0 and fins is not None:
+        cell = edge_cell_m(params, c.flipper_edge_level)
+        fins.write_leading_edge_stl(stl.with_name(EDGE_STLS[0]),
+                                    fins.triangle_regions() == FLIPPERS, "flipperEdges", 2 * cell)
+    if c.fluke_edge_level > 0:
+        cell = edge_cell_m(params, c.fluke_edge_level)
+        blade = surface.fluke_blade(c.fluke_clearance * (params.fluke_cell_m or cell))
+        surface.write_leading_edge_stl(stl.with_name(EDGE_STLS[1]), blade, "flukeEdges", 2 * cell)
 
 
 def _case_record(scene, surface, params: CaseParameters, scene_file, static_whale: bool,

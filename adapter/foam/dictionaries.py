@@ -16,11 +16,13 @@ from pathlib import Path
 from adapter import resources
 from adapter.coupling.protocol import CONNECT_TIMEOUT_S, REPLY_TIMEOUT_S
 from adapter.errors import CaseError
-from adapter.foam.parameters import CaseParameters
+from adapter.foam.parameters import CaseParameters, edge_cell_m
 
 #: the whale's triangles as three solids, body, flippers, flukes (constant/triSurface/): the
 #: loads' regions, and the surface meshed when the fins have layers of their own
 REGIONS_STL = "whale_regions.stl"
+#: the flippers' and the flukes' leading edges (case.flipper_edge_level, fluke_edge_level)
+EDGE_STLS = ("flipperEdges.stl", "flukeEdges.stl")
 
 #: the boundary condition library built by scripts/build_plugin.sh (resources.build_dir())
 PLUGIN_LIB = resources.PLUGIN_LIB
@@ -94,6 +96,13 @@ def _write_meshing(case: Path, c, p: CaseParameters) -> None:
         else:
             del cm["refinementRegions"][name]
             del d["geometry"][f"{name}.stl"]
+    # the finer cells within one of them of the fins' leading edges (adapter.body.leadingedge)
+    for stl, level in zip(EDGE_STLS, (c.flipper_edge_level, c.fluke_edge_level), strict=True):
+        if level > 0:
+            name = stl.removesuffix(".stl")
+            d["geometry"][stl] = {"type": "triSurfaceMesh", "name": name}
+            cm["refinementRegions"][name] = {"mode": "distance",
+                                             "levels": f"(({edge_cell_m(p, level)!r} {level}))"}
     cm["locationInMesh"] = _vector(p.location_in_mesh)
     d["addLayers"] = c.layers > 0
     lc = d["addLayersControls"]

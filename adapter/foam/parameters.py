@@ -171,6 +171,12 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
     )
 
 
+def edge_cell_m(params: CaseParameters, level: int) -> float:
+    """The edge of a cell at snappyHexMesh ``level`` (m): the background cell's shortest
+    edge halved ``level`` times."""
+    return float(min(params.cell_size)) / 2 ** level
+
+
 def _binary_step(dt: float) -> float:
     """``dt`` rounded down to a multiple of 2**-k s, with k >= 10 and at least 64 such quanta.
 
