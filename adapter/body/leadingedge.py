@@ -1,4 +1,5 @@
-"""The fins' leading edges: where snappyHexMesh puts finer cells at ``case.fin_edge_levels``.
+"""The fins' leading edges: where snappyHexMesh puts finer cells at
+``case.flipper_edge_level`` and ``case.fluke_edge_level``.
 
 A fin's pressure drag on the default's cells is mostly its leading edge's: the suction peak
 there and the recovery behind it want cells a few times smaller than the leading-edge radius
@@ -15,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-#: the forward share of each section's chord refined at ``case.fin_edge_levels``
+#: the forward share of each section's chord refined at the edge levels
 EDGE_FRACTION = 0.1
 
 
