@@ -36,7 +36,7 @@ from adapter.foam.dictionaries import (
 )
 from adapter.foam.loads import body_dimensions
 from adapter.foam.parallel import resolve_ranks
-from adapter.foam.parameters import CaseParameters, case_parameters, edge_cell_m
+from adapter.foam.parameters import CaseParameters, case_parameters, level_cell_m
 
 #: the template case (foam_case/ of the repository, adapter/_foam_case in a wheel)
 TEMPLATE_DIR = resources.TEMPLATE_DIR
@@ -168,11 +168,11 @@ def _write_edges(stl: Path, scene, surface, fins, params: CaseParameters) -> Non
     edge's without finer blade cells, behind the hinge)."""
     c = scene.case
     if c.flipper_edge_level > 0 and fins is not None:
-        cell = edge_cell_m(params, c.flipper_edge_level)
+        cell = level_cell_m(params.cell_size, c.flipper_edge_level)
         fins.write_leading_edge_stl(stl.with_name(EDGE_STLS[0]),
                                     fins.triangle_regions() == FLIPPERS, "flipperEdges", 2 * cell)
     if c.fluke_edge_level > 0:
-        cell = edge_cell_m(params, c.fluke_edge_level)
+        cell = level_cell_m(params.cell_size, c.fluke_edge_level)
         blade = surface.fluke_blade(c.fluke_clearance * (params.fluke_cell_m or cell))
         surface.write_leading_edge_stl(stl.with_name(EDGE_STLS[1]), blade, "flukeEdges", 2 * cell)
 

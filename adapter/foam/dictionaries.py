@@ -16,7 +16,7 @@ from pathlib import Path
 from adapter import resources
 from adapter.coupling.protocol import CONNECT_TIMEOUT_S, REPLY_TIMEOUT_S
 from adapter.errors import CaseError
-from adapter.foam.parameters import CaseParameters, edge_cell_m
+from adapter.foam.parameters import CaseParameters, level_cell_m
 
 #: the whale's triangles as three solids, body, flippers, flukes (constant/triSurface/): the
 #: loads' regions, and the surface meshed when the fins have layers of their own
@@ -100,9 +100,9 @@ def _write_meshing(case: Path, c, p: CaseParameters) -> None:
     for stl, level in zip(EDGE_STLS, (c.flipper_edge_level, c.fluke_edge_level), strict=True):
         if level > 0:
             name = stl.removesuffix(".stl")
+            cell = level_cell_m(p.cell_size, level)
             d["geometry"][stl] = {"type": "triSurfaceMesh", "name": name}
-            cm["refinementRegions"][name] = {"mode": "distance",
-                                             "levels": f"(({edge_cell_m(p, level)!r} {level}))"}
+            cm["refinementRegions"][name] = {"mode": "distance", "levels": f"(({cell!r} {level}))"}
     cm["locationInMesh"] = _vector(p.location_in_mesh)
     d["addLayers"] = c.layers > 0
     lc = d["addLayersControls"]

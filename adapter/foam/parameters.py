@@ -123,8 +123,8 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
     cells = np.maximum(1, np.round((dmax - dmin) / cell)).astype(int)
     size = (dmax - dmin) / cells
     smallest = float(size.min()) / 2 ** c.refinement[1]
-    flipper_cell = float(size.min()) / 2 ** c.flipper_level if c.flipper_level > 0 else 0.0
-    fluke_cell = float(size.min()) / 2 ** c.fluke_level if c.fluke_level > 0 else 0.0
+    flipper_cell = level_cell_m(size, c.flipper_level) if c.flipper_level > 0 else 0.0
+    fluke_cell = level_cell_m(size, c.fluke_level) if c.fluke_level > 0 else 0.0
     speed = scene.flow.speed_m_s
     dt = c.dt_s if c.dt_s > 0 else 0.5 * smallest / speed
     write_interval = scene.period_s / c.writes_per_cycle
@@ -171,10 +171,10 @@ def case_parameters(scene, bounds_min, bounds_max, ranks: int | None = None,
     )
 
 
-def edge_cell_m(params: CaseParameters, level: int) -> float:
-    """The edge of a cell at snappyHexMesh ``level`` (m): the background cell's shortest
-    edge halved ``level`` times."""
-    return float(min(params.cell_size)) / 2 ** level
+def level_cell_m(cell_size, level: int) -> float:
+    """The edge of a cell at snappyHexMesh ``level`` (m): the background cell's (``cell_size``,
+    its edges along x, y, z) shortest edge halved ``level`` times."""
+    return float(min(cell_size)) / 2 ** level
 
 
 def _binary_step(dt: float) -> float:
