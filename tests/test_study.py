@@ -472,3 +472,11 @@ def test_the_mesh_study_compares_the_same_cycle_of_every_mesh():
     del meshes[2]["cycle_means"]
     same, start = A.same_cycle(meshes)
     assert start is None and same[1]["swimming_fx"] == -1027.0
+
+
+def test_the_study_names_its_scene_file_and_the_preset_under_it(tmp_path, smoke_scene):
+    # a scene file layered on a preset is not that preset: study.json, the chart's title and
+    # the report say the file
+    named = A.analyse(tmp_path, smoke_scene, [], 1.3, scene_file=tmp_path / "edges.toml")
+    assert named["scene"] == "edges (smoke)"
+    assert A.analyse(tmp_path, smoke_scene, [], 1.3)["scene"] == "smoke"

@@ -305,7 +305,7 @@ def run_study(scene, out, *, ratio: float = DEFAULT_RATIO, speeds=DEFAULT_SPEEDS
         except AdapterError as exc:
             failed[c["name"]] = str(exc)
             log(f"{head}: failed: {exc}")
-    study = analyse(out, scene, cases, ratio, failed)
+    study = analyse(out, scene, cases, ratio, failed, scene_file)
     study["finest"] = finest
     study["layers"] = layers
     study["wall_s_this_run"] = round(time.perf_counter() - t0, 1)

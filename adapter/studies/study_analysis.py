@@ -289,10 +289,13 @@ def meshes_compared(meshes: dict) -> dict:
     return {**mesh_study(matched), "cycle_start_s": start, "regions": region_study(meshes)}
 
 
-def analyse(out: Path, scene, cases: list, ratio: float, failed: dict | None = None) -> dict:
-    """study.json's content from the finished cases."""
+def analyse(out: Path, scene, cases: list, ratio: float, failed: dict | None = None,
+            scene_file=None) -> dict:
+    """study.json's content from the finished cases. Its ``scene`` names the scene file when
+    there is one (its stem and the preset it layers on: "edges (default)"), else the preset."""
     results = {c["name"]: case_result(out / c["name"]) for c in cases}
-    study = {"scene": scene.name, "ratio": ratio, "cases": results, "failed": failed or {},
+    label = f"{Path(scene_file).stem} ({scene.name})" if scene_file else scene.name
+    study: dict = {"scene": label, "ratio": ratio, "cases": results, "failed": failed or {},
              "not_finished": [n for n, r in results.items() if r is None]}
     meshes = {k: results.get(f"mesh-{k}/case") for k in (1, 2, 3)}
     if all(meshes.values()):
