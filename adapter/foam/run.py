@@ -26,6 +26,7 @@ from adapter.coupling.protocol import TOKEN_ENV
 from adapter.errors import SolverRunError
 from adapter.foam.case import Case, parallel_settings
 from adapter.foam.dictionaries import parsed_dict, plugin_lib, set_decomposition
+from adapter.foam.diskspace import check_room
 from adapter.foam.eta import PairEta
 from adapter.foam.folders import (
     asked_start,
@@ -124,6 +125,10 @@ def run_case(case_dir, *, ranks: int | None = None, progress: bool = True,
     end_time = float(control["endTime"])
     if start_time >= end_time - 0.5 * float(control["deltaT"]):
         return _finished(case, record, ranks, from_ranks and settings["reconstruct"], t_start)
+    # a run that cannot write all its times is refused before it starts (a full disk would
+    # stop it mid-write, its latest time folder half written)
+    check_room(case, control.content, start_time, end_time,
+               int(record.get("mesh", {}).get("cells", 0)))
     token = token or os.environ.get(TOKEN_ENV) or None
     env = foam_env()
     env.pop(TOKEN_ENV, None)
