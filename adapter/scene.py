@@ -10,24 +10,16 @@ SI; positions along the body are fractions of the body length L from the rostrum
 from __future__ import annotations
 
 import dataclasses
-import math
 import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from adapter.errors import SceneError
 from adapter.scenevalues import convert, describe, read_toml
+from adapter.scenevalues import within as _within
 
 PRESETS = ("default", "smoke", "fine")
 DATA_DIR = Path(__file__).parent / "data"
-
-
-def _within(low, high=math.inf, ends="[]"):
-    """A field's check, low <= v <= high, "(" or ")" in ``ends`` excluding that end."""
-    def check(v):
-        return low <= v <= high and (v != low or ends[0] == "[") and (v != high or ends[1] == "]")
-    check.range = f"{ends[0]}{low:.10g}, {high:.10g}{ends[1]}".replace("inf]", "inf)")  # type: ignore[attr-defined]
-    return check
 
 
 _positive, _non_negative, _fraction = _within(0, ends="()"), _within(0), _within(0, 1)
@@ -226,8 +218,10 @@ class Case:
     #: each blended point follows this many whale points, weighted by 1 / distance**motion_power
     motion_neighbours: int = field(default=16, metadata={"check": _within(2, 1024)})
     motion_power: float = field(default=3.0, metadata={"check": _within(1, 6)})
-    #: > 0: the weights are the whale points' areas within (1 + motion_shell) r_nearest
+    #: > 0: the weights are the whale points' areas within (1 + motion_shell) r_nearest, and
+    #: with motion_clusters > 0 of cubes of them motion_clusters r_nearest across (docs/case.md)
     motion_shell: float = field(default=0.0, metadata={"check": _non_negative})
+    motion_clusters: float = field(default=0.0, metadata={"check": _non_negative})
     #: > 0: the points also turn with the whale, in full within the prism layers and blended out
     #: over motion_rotation layer thicknesses beyond them (rotations fitted to so many points)
     motion_rotation: float = field(default=0.0, metadata={"check": _non_negative})
@@ -348,6 +342,9 @@ def _check_relations(obj, path: str) -> None:
         if 0 < getattr(obj, key) <= obj.refinement[0]:
             raise SceneError(f"{path}.{key} = {getattr(obj, key)} refines nothing (refinement "
                              f"min is {obj.refinement[0]}): give a level above it, or 0 for none")
+    if isinstance(obj, Case) and obj.motion_clusters > 0 and not obj.motion_shell > 0:
+        raise SceneError(f"{path}.motion_clusters needs {path}.motion_shell > 0 (the clusters "
+                         "carry the whale points' areas): set both, or motion_clusters = 0")
 
 
 def default_scene() -> Scene:

@@ -10,6 +10,14 @@ import typing
 from adapter.errors import SceneError
 
 
+def within(low, high=math.inf, ends="[]"):
+    """A field's check, low <= v <= high, "(" or ")" in ``ends`` excluding that end."""
+    def check(v):
+        return low <= v <= high and (v != low or ends[0] == "[") and (v != high or ends[1] == "]")
+    check.range = f"{ends[0]}{low:.10g}, {high:.10g}{ends[1]}".replace("inf]", "inf)")  # type: ignore[attr-defined]
+    return check
+
+
 def describe(value) -> str:
     return f"{value!r} ({type(value).__name__})"
 
@@ -47,7 +55,7 @@ def convert(value, annotation, path: str, meta: dict):
         raise SceneError(f"{path}: expected one of {', '.join(choices)}; got {value!r}")
     check = meta.get("check")
     if check is not None and not check(value):
-        allowed = f" {check.range}" if hasattr(check, "range") else ""   # _within's interval
+        allowed = f" {check.range}" if hasattr(check, "range") else ""   # within's interval
         raise SceneError(f"{path}: value {value!r} is out of range{allowed} (docs/scene.md)")
     return value
 

@@ -55,18 +55,21 @@ def test_the_time_scheme_reaches_fvschemes(tmp_path, smoke_scene, smoke_surface)
 
 
 def test_the_motion_weights_reach_dynamicmeshdict(tmp_path, smoke_scene, smoke_surface):
-    for n, power, shell in ((8, 2.0, 0.0), (48, 3.5, 0.25)):
+    for n, power, shell, clusters in ((8, 2.0, 0.0, 0.0), (48, 3.5, 0.25, 0.2)):
         case = tmp_path / f"case-k{n}"
         scene = smoke_scene.replace(case={"motion_neighbours": n, "motion_power": power,
-                                          "motion_shell": shell})
+                                          "motion_shell": shell, "motion_clusters": clusters})
         C.prepare_case(scene, case, surface=smoke_surface)
         dyn = ParsedParameterFile(str(case / "constant" / "dynamicMeshDict"))
         coeffs = dyn["whaleBlendedDisplacementCoeffs"]
         assert int(coeffs["nNeighbours"]) == n and float(coeffs["power"]) == power
-        assert float(coeffs["shell"]) == shell
+        assert float(coeffs["shell"]) == shell and float(coeffs["clusters"]) == clusters
     default = load_scene(preset="default").case
-    assert (default.motion_neighbours, default.motion_power, default.motion_shell) == \
-        (256, 2.0, 0.5)
+    assert (default.motion_neighbours, default.motion_power, default.motion_shell,
+            default.motion_clusters) == (256, 2.0, 0.5, 0.125)
+    # clusters carry the whale points' areas: no clusters without the shell
+    with pytest.raises(SceneError, match="motion_clusters needs case.motion_shell > 0"):
+        smoke_scene.replace(case={"motion_shell": 0.0})
     with pytest.raises(SceneError, match="motion_neighbours"):
         smoke_scene.replace(case={"motion_neighbours": 1})
     with pytest.raises(SceneError, match="motion_power"):

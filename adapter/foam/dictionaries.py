@@ -185,6 +185,8 @@ def _write_mesh_motion(case: Path, c, p: CaseParameters, static_whale: bool) -> 
         coeffs["nNeighbours"] = c.motion_neighbours
         coeffs["power"] = c.motion_power
         coeffs["shell"] = c.motion_shell
+        # far from the whale, clusters of its points about motion_clusters r_1 across
+        coeffs["clusters"] = c.motion_clusters
         # the layer cells turn with the wall (a leading edge's fan of layer cells keeps its shape)
         coeffs["rotation"] = "yes" if c.motion_rotation > 0 else "no"
         if c.motion_rotation > 0:

@@ -5,6 +5,7 @@
 
 #include "patchBlendWeights.H"
 #include "pointKdTree.H"
+#include "patchClusters.H"
 #include "DynamicList.H"
 #include "UIndirectList.H"
 #include <algorithm>
@@ -16,6 +17,59 @@ Foam::scalar smoothstep5(Foam::scalar s)
 {
     s = std::min(std::max(s, Foam::scalar(0)), Foam::scalar(1));
     return s * s * s * (10 - 15 * s + 6 * s * s);
+}
+
+
+//- Append the normalised weights, times factor, of a point's K+1 nearest
+//  sources (nearest first, squared distances) to sources/weights, the
+//  sources' indices shifted by offset; areas: the sources' (with a shell);
+//  r1: the point's distance to the patch, which the shell is measured from
+void appendWeights(
+    const std::vector<std::pair<Foam::scalar, Foam::label>>& nearest,
+    const Foam::label K,
+    const Foam::scalar power,
+    const Foam::scalar shell,
+    const Foam::scalar r1,
+    const Foam::scalarField& areas,
+    const Foam::label offset,
+    const Foam::scalar factor,
+    Foam::DynamicList<Foam::label>& sources,
+    Foam::DynamicList<Foam::scalar>& weights
+)
+{
+    using namespace Foam;
+    std::vector<scalar> w(K);
+    const scalar rLast = Foam::sqrt(nearest[K].first);
+    // A point of this rank that is a patch point of another rank's faces
+    // only (r_1 = 0) follows that point: its weight is GREAT
+    const scalar R =
+        (shell > 0 && r1 > 0 ? std::min((1 + shell) * r1, rLast) : rLast);
+    const scalar cut = Foam::pow(R, -power);
+    scalar sumW = 0;
+    for (label j = 0; j < K; ++j)
+    {
+        const scalar r = Foam::sqrt(nearest[j].first);
+        w[j] = (r > 0 ? Foam::pow(r, -power) - cut : GREAT);
+        if (shell > 0)
+        {
+            w[j] = std::max(w[j], scalar(0)) * areas[nearest[j].second];
+        }
+        sumW += w[j];
+    }
+    if (!(sumW > 0))
+    {
+        // All K + 1 equally far: plain average
+        std::fill(w.begin(), w.end(), scalar(1));
+        sumW = K;
+    }
+    for (label j = 0; j < K; ++j)
+    {
+        if (w[j] > 0)
+        {
+            sources.append(offset + nearest[j].second);
+            weights.append(factor * w[j] / sumW);
+        }
+    }
 }
 }
 
@@ -33,8 +87,11 @@ Foam::patchBlendWeights::patchBlendWeights(
     const scalar rotationInner,
     const scalar rotationDistance,
     const scalar shell,
-    const scalarField& areas
-)
+    const scalarField& areas,
+    const patchClusters* clusters,
+    const scalar fraction
+) :
+    nPatchPoints_(tree.size())
 {
     if (shell > 0 && areas.size() != tree.size())
     {
@@ -42,6 +99,12 @@ Foam::patchBlendWeights::patchBlendWeights(
             << "a shell needs the area of every patch point: got "
             << areas.size() << " areas for " << tree.size() << " points"
             << exit(FatalError);
+    }
+    if (clusters && !(shell > 0 && fraction > 0))
+    {
+        FatalErrorInFunction
+            << "clusters need a shell > 0 and a fraction > 0: got shell "
+            << shell << ", fraction " << fraction << exit(FatalError);
     }
 
     boolList onPatch(p0.size(), false);
@@ -56,7 +119,6 @@ Foam::patchBlendWeights::patchBlendWeights(
 
     std::vector<std::pair<scalar, label>> nearest;
     const scalar R2 = sqr(outerDistance);
-    std::vector<scalar> w(K + 1);
 
     forAll(p0, pointi)
     {
@@ -78,41 +140,57 @@ Foam::patchBlendWeights::patchBlendWeights(
             continue;
         }
 
-        const scalar rLast = Foam::sqrt(nearest[K].first);
-        // A point of this rank that is a patch point of another rank's faces
-        // only (r_1 = 0) follows that point: its weight is GREAT
-        const scalar R =
-            (shell > 0 && r1 > 0 ? std::min((1 + shell) * r1, rLast) : rLast);
-        const scalar cut = Foam::pow(R, -power);
-        scalar sumW = 0;
-        for (label j = 0; j < K; ++j)
-        {
-            const scalar r = Foam::sqrt(nearest[j].first);
-            w[j] = (r > 0 ? Foam::pow(r, -power) - cut : GREAT);
-            if (shell > 0)
-            {
-                w[j] = std::max(w[j], scalar(0)) * areas[nearest[j].second];
-            }
-            sumW += w[j];
-        }
-        if (!(sumW > 0))
-        {
-            // All K + 1 equally far: plain average
-            for (label j = 0; j < K; ++j)
-            {
-                w[j] = 1;
-            }
-            sumW = K;
-        }
-
         blendPoints.append(pointi);
-        for (label j = 0; j < K; ++j)
+        const scalar level = (clusters ? clusters->level(r1, fraction) : 0);
+        const label top = (clusters ? clusters->nLevels() - 1 : 0);
+        const label lo = std::min(label(level), std::max(top - 1, label(0)));
+        const scalar beta = (top > 0 ? smoothstep5(level - lo) : 0);
+        for (label l = lo; l <= lo + 1; ++l)
         {
-            if (w[j] > 0)
+            const scalar share = (l == lo ? 1 - beta : beta);
+            if (share <= 0)
             {
-                sources.append(nearest[j].second);
-                weights.append(phi * w[j] / sumW);
+                continue;
             }
+            if (l == 0)
+            {
+                appendWeights(
+                    nearest,
+                    K,
+                    power,
+                    shell,
+                    r1,
+                    areas,
+                    0,
+                    phi * share,
+                    sources,
+                    weights
+                );
+                continue;
+            }
+            const pointKdTree& level_tree = clusters->tree(l);
+            const label Kl = std::min(K, level_tree.size() - 1);
+            std::vector<std::pair<scalar, label>> near_l;
+            if (Kl < 1)
+            {
+                // One cluster: the whole patch's mean
+                sources.append(clusters->offset(l));
+                weights.append(phi * share);
+                continue;
+            }
+            level_tree.knn(p0[pointi], Kl + 1, near_l);
+            appendWeights(
+                near_l,
+                Kl,
+                power,
+                shell,
+                r1,
+                clusters->areas(l),
+                clusters->offset(l),
+                phi * share,
+                sources,
+                weights
+            );
         }
         offsets.append(sources.size());
         psi.append(smoothstep5(
@@ -162,8 +240,12 @@ void Foam::patchBlendWeights::apply(
             for (label k = offsets_[i]; k < offsets_[i + 1]; ++k)
             {
                 const label j = sources_[k];
-                sum += weights_[k]
-                    * (d[j] + psi_[i] * ((Rm[j] - I) & (x - patchPoints0[j])));
+                sum += weights_[k] * d[j];
+                if (j < nPatchPoints_)
+                {
+                    sum += weights_[k] * psi_[i]
+                        * ((Rm[j] - I) & (x - patchPoints0[j]));
+                }
             }
         }
         else

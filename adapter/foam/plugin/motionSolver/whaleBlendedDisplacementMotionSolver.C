@@ -53,23 +53,27 @@ void Foam::whaleBlendedDisplacementMotionSolver::readCoeffs()
     rotationInner_ = dict.getOrDefault<scalar>("rotationInner", innerDistance_);
     rotationDistance_ = dict.getOrDefault<scalar>("rotationDistance", 2);
     shell_ = dict.getOrDefault<scalar>("shell", 0);
+    clusterFraction_ = dict.getOrDefault<scalar>("clusters", 0);
     checkMotion_ = dict.getOrDefault<bool>("checkMotion", true);
 
     if (nNeighbours_ < 1 || (rotation_ && rotationNeighbours_ < 3)
         || power_ <= 0 || innerDistance_ < 0 || outerDistance_ <= innerDistance_
         || rotationInner_ < 0 || rotationDistance_ <= rotationInner_
-        || shell_ < 0)
+        || shell_ < 0 || clusterFraction_ < 0
+        || (clusterFraction_ > 0 && !(shell_ > 0)))
     {
         FatalIOErrorInFunction(dict)
             << "need nNeighbours >= 1, rotationNeighbours >= 3, power > 0,"
             << " 0 <= innerDistance"
             << " < outerDistance, 0 <= rotationInner < rotationDistance,"
-               " shell >= 0; got nNeighbours "
+               " shell >= 0, clusters >= 0 (> 0 only with a shell > 0);"
+               " got nNeighbours "
             << nNeighbours_ << ", rotationNeighbours " << rotationNeighbours_
             << ", power " << power_ << ", innerDistance " << innerDistance_
             << ", outerDistance " << outerDistance_ << ", rotationInner "
             << rotationInner_ << ", rotationDistance " << rotationDistance_
-            << ", shell " << shell_ << exit(FatalIOError);
+            << ", shell " << shell_ << ", clusters " << clusterFraction_
+            << exit(FatalIOError);
     }
 }
 
@@ -107,6 +111,10 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
         }
         areas = patchPoints_->mergeSum(mine);
     }
+    if (clusterFraction_ > 0)
+    {
+        clusters_.reset(new patchClusters(patchPoints_->points(), areas));
+    }
 
     // Blend weights of every mesh point off the patch within outerDistance
     weights_.reset(new patchBlendWeights(
@@ -120,7 +128,9 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
         rotationInner_,
         rotationDistance_,
         shell_,
-        areas
+        areas,
+        clusters_.get(),
+        clusterFraction_
     ));
 
     if (rotation_)
@@ -143,8 +153,14 @@ void Foam::whaleBlendedDisplacementMotionSolver::calcWeights()
         Info << " (" << rotationInner_ << " to " << rotationDistance_
              << " m, fitted to " << rotationNeighbours_ << " points)";
     }
-    Info << ", shell " << shell_ << ", checkMotion " << checkMotion_ << ")"
-         << endl;
+    Info << ", shell " << shell_;
+    if (clusters_.valid())
+    {
+        Info << ", clusters " << clusterFraction_ << " ("
+             << clusters_->nLevels() - 1 << " levels from "
+             << clusters_->side(1) << " m)";
+    }
+    Info << ", checkMotion " << checkMotion_ << ")" << endl;
 
     if (checkMotion_)
     {
@@ -217,7 +233,10 @@ void Foam::whaleBlendedDisplacementMotionSolver::solve()
     // The whale's condition asks the step-server (once per time)
     pointDisplacement_.boundaryFieldRef().updateCoeffs();
 
-    const vectorField d(mergedPatchDisplacement());
+    const vectorField dPatch(mergedPatchDisplacement());
+    const vectorField d(
+        clusters_.valid() ? clusters_->sources(dPatch)() : dPatch
+    );
     vectorField& pd = pointDisplacement_.primitiveFieldRef();
 
     // Only the patch's own points and the blended ones move
@@ -225,7 +244,9 @@ void Foam::whaleBlendedDisplacementMotionSolver::solve()
 
     if (rotation_)
     {
-        const tensorField Rm(rotations_->rotations(patchPoints_->points(), d));
+        const tensorField Rm(
+            rotations_->rotations(patchPoints_->points(), dPatch)
+        );
         weights_->apply(d, Rm, points0(), patchPoints_->points(), pd);
     }
     else
