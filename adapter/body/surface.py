@@ -126,7 +126,8 @@ class WhaleSurface:
         if not blade.any():
             raise GeometryError(f"no fluke triangle lies {clearance_m:.4g} m behind the tail "
                                 "base: give a smaller case.fluke_clearance, or "
-                                "case.fluke_level = 0 for no finer cells at the flukes")
+                                "case.fluke_level = case.fluke_edge_level = 0 for no finer "
+                                "cells at the flukes")
         return blade
 
     def write_fluke_blade_stl(self, path: str | Path, clearance_m: float) -> None:
