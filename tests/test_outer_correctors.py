@@ -66,10 +66,10 @@ def test_the_motion_weights_reach_dynamicmeshdict(tmp_path, smoke_scene, smoke_s
         assert float(coeffs["shell"]) == shell and float(coeffs["clusters"]) == clusters
     default = load_scene(preset="default").case
     assert (default.motion_neighbours, default.motion_power, default.motion_shell,
-            default.motion_clusters) == (256, 2.0, 0.5, 0.125)
+            default.motion_clusters) == (256, 2.0, 0.5, 0.0)
     # clusters carry the whale points' areas: no clusters without the shell
     with pytest.raises(SceneError, match="motion_clusters needs case.motion_shell > 0"):
-        smoke_scene.replace(case={"motion_shell": 0.0})
+        smoke_scene.replace(case={"motion_shell": 0.0, "motion_clusters": 0.125})
     with pytest.raises(SceneError, match="motion_neighbours"):
         smoke_scene.replace(case={"motion_neighbours": 1})
     with pytest.raises(SceneError, match="motion_power"):
