@@ -240,11 +240,16 @@ void Foam::patchBlendWeights::apply(
             for (label k = offsets_[i]; k < offsets_[i + 1]; ++k)
             {
                 const label j = sources_[k];
-                sum += weights_[k] * d[j];
                 if (j < nPatchPoints_)
                 {
-                    sum += weights_[k] * psi_[i]
-                        * ((Rm[j] - I) & (x - patchPoints0[j]));
+                    sum += weights_[k]
+                        * (d[j]
+                           + psi_[i] * ((Rm[j] - I) & (x - patchPoints0[j])));
+                }
+                else
+                {
+                    // a cluster: the rotation acts through the points alone
+                    sum += weights_[k] * d[j];
                 }
             }
         }
