@@ -27,6 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from adapter.foam.case import Case  # noqa: E402
 from adapter.foam.dictionaries import parsed_dict  # noqa: E402
+from adapter.foam.logs import NON_ORTHOGONALITY_RE  # noqa: E402
 from adapter.foam.stepserver import start_server, stop_server  # noqa: E402
 from adapter.foam.tools import foam_env  # noqa: E402
 
@@ -61,7 +62,7 @@ def worst(log: Path) -> tuple:
         m = re.match(r"^Time = (\S+)", line)
         if m:
             t = float(m.group(1))
-        m = re.search(r"non-orthogonality Max: (\S+)", line)
+        m = NON_ORTHOGONALITY_RE.search(line)
         if m and t is not None:
             figures.append((float(m.group(1)), t))
     if not figures:

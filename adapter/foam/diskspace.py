@@ -27,7 +27,7 @@ def write_bytes(case: Path, cells: int) -> float:
     :data:`BYTES_PER_CELL`."""
     for folders in (processor_dirs(case), [case]):
         latest = [time_dirs(p) for p in folders]
-        if all(len(t) > 0 and t[-1][0] > 0 for t in latest) and latest:
+        if latest and all(t and t[-1][0] > 0 for t in latest):
             return float(sum(_size(t[-1][1]) for t in latest))
     return float(cells * BYTES_PER_CELL)
 

@@ -23,7 +23,8 @@ Foam::scalar smoothstep5(Foam::scalar s)
 //- Append the normalised weights, times factor, of a point's K+1 nearest
 //  sources (nearest first, squared distances) to sources/weights, the
 //  sources' indices shifted by offset; areas: the sources' (with a shell);
-//  r1: the point's distance to the patch, which the shell is measured from
+//  r1: the point's distance to the patch, which the shell is measured from;
+//  w: scratch space
 void appendWeights(
     const std::vector<std::pair<Foam::scalar, Foam::label>>& nearest,
     const Foam::label K,
@@ -34,11 +35,12 @@ void appendWeights(
     const Foam::label offset,
     const Foam::scalar factor,
     Foam::DynamicList<Foam::label>& sources,
-    Foam::DynamicList<Foam::scalar>& weights
+    Foam::DynamicList<Foam::scalar>& weights,
+    std::vector<Foam::scalar>& w
 )
 {
     using namespace Foam;
-    std::vector<scalar> w(K);
+    w.assign(K, 0);
     const scalar rLast = Foam::sqrt(nearest[K].first);
     // A point of this rank that is a patch point of another rank's faces
     // only (r_1 = 0) follows that point: its weight is GREAT
@@ -118,6 +120,8 @@ Foam::patchBlendWeights::patchBlendWeights(
     offsets.append(0);
 
     std::vector<std::pair<scalar, label>> nearest;
+    std::vector<std::pair<scalar, label>> nearestClusters;
+    std::vector<scalar> w;
     const scalar R2 = sqr(outerDistance);
 
     forAll(p0, pointi)
@@ -164,13 +168,13 @@ Foam::patchBlendWeights::patchBlendWeights(
                     0,
                     phi * share,
                     sources,
-                    weights
+                    weights,
+                    w
                 );
                 continue;
             }
             const pointKdTree& level_tree = clusters->tree(l);
             const label Kl = std::min(K, level_tree.size() - 1);
-            std::vector<std::pair<scalar, label>> near_l;
             if (Kl < 1)
             {
                 // One cluster: the whole patch's mean
@@ -178,9 +182,9 @@ Foam::patchBlendWeights::patchBlendWeights(
                 weights.append(phi * share);
                 continue;
             }
-            level_tree.knn(p0[pointi], Kl + 1, near_l);
+            level_tree.knn(p0[pointi], Kl + 1, nearestClusters);
             appendWeights(
-                near_l,
+                nearestClusters,
                 Kl,
                 power,
                 shell,
@@ -189,7 +193,8 @@ Foam::patchBlendWeights::patchBlendWeights(
                 clusters->offset(l),
                 phi * share,
                 sources,
-                weights
+                weights,
+                w
             );
         }
         offsets.append(sources.size());

@@ -234,9 +234,13 @@ void Foam::whaleBlendedDisplacementMotionSolver::solve()
     pointDisplacement_.boundaryFieldRef().updateCoeffs();
 
     const vectorField dPatch(mergedPatchDisplacement());
-    const vectorField d(
-        clusters_.valid() ? clusters_->sources(dPatch)() : dPatch
+    // the sources' displacements: the patch points' own, or with clusters
+    // theirs followed by the clusters'
+    const tmp<vectorField> td(
+        clusters_.valid() ? clusters_->sources(dPatch)
+                          : tmp<vectorField>(dPatch)
     );
+    const vectorField& d = td();
     vectorField& pd = pointDisplacement_.primitiveFieldRef();
 
     // Only the patch's own points and the blended ones move
